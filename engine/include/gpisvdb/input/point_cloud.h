@@ -1,0 +1,32 @@
+#pragma once
+// Oriented point clouds with per-point uncertainty (DESIGN §3.1).
+#include <vector>
+
+#include "gpisvdb/core/types.h"
+#include "gpisvdb/input/samples.h"
+
+namespace gpisvdb {
+
+struct PointCloud {
+    std::vector<Vec3d> positions;   ///< world units
+    std::vector<Vec3d> normals;     ///< any length > 0; normalised when sampled
+    std::vector<double> sigmas;     ///< optional per-point position std (world units); empty = use sigmaRel
+    std::vector<double> areas;      ///< optional per-point area (world units²); empty = estimate
+};
+
+struct CloudNoiseOptions {
+    double sigmaRel = 0.5;  ///< default position std relative to ℓ when a point has no sigma, > 0
+    int areaNeighbours = 8; ///< k of the k-nearest-neighbour area estimate a_i = π r_k² / k
+};
+
+struct CloudSamples {
+    Samples samples;
+    double sigma = 0;  ///< default absolute position std used where no per-point sigma is given
+};
+
+/// Samples of an oriented cloud: w_i = a_i n_i, Σ_i = σ_i² I and Σ'_i = a_i² τ_i² (I − n_i n_iᵀ) with the
+/// normal-angle std τ_i = σ_i / √a_i (position noise over the local spacing). ℓ = mean nearest-neighbour
+/// distance. Throws InputError on fewer than 2 points or a zero normal.
+CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& options = {});
+
+}  // namespace gpisvdb

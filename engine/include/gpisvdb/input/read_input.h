@@ -1,0 +1,39 @@
+#pragma once
+// Reading inputs from files. Soups: OBJ, OFF, PLY (with faces), STL. Clouds: XYZ (x y z nx ny nz [sigma]),
+// PLY (no faces; nx ny nz, optional sigma), VTP (Normals point data, optional sigma array; polygons make it a soup).
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "gpisvdb/input/point_cloud.h"
+#include "gpisvdb/input/triangle_soup.h"
+
+namespace gpisvdb {
+
+struct InputData {
+    std::string path;
+    std::optional<TriangleSoup> soup;   ///< set for meshes
+    std::optional<PointCloud> cloud;    ///< set for point clouds
+    std::size_t polygonsTriangulated = 0;  ///< polygons with > 3 corners fan-triangulated
+};
+
+/// Reads a file by its extension (case-insensitive). Throws InputError with the file name and, where it
+/// applies, the line, on a missing file, unknown extension, empty content, malformed content, non-finite
+/// numbers, out-of-range face indices, or a cloud without normals.
+InputData readInput(const std::string& path);
+
+struct NoiseOptions {
+    double sigmaRel = 0.5;  ///< σ relative to ℓ (> 0)
+};
+
+struct InputSamples {
+    Samples samples;
+    double sigma = 0;                   ///< absolute σ (world units)
+    std::size_t degenerateSkipped = 0;  ///< zero-area triangles left out
+    bool isSoup = false;
+};
+
+/// Samples of either kind of input with its noise model.
+InputSamples makeSamples(const InputData& input, const NoiseOptions& options = {});
+
+}  // namespace gpisvdb

@@ -1,0 +1,32 @@
+#pragma once
+// The GPIS input (DESIGN §3.1): oriented samples with Gaussian noise on positions and vector areas.
+#include <string>
+#include <vector>
+
+#include "gpisvdb/core/types.h"
+
+namespace gpisvdb {
+
+/// Symmetric 3×3 stored as (xx, yy, zz, xy, xz, yz).
+struct Sym3 {
+    double xx = 0, yy = 0, zz = 0, xy = 0, xz = 0, yz = 0;
+    Mat3d matrix() const {
+        Mat3d m;
+        m << xx, xy, xz, xy, yy, yz, xz, yz, zz;
+        return m;
+    }
+    static Sym3 from(const Mat3d& m) { return {m(0, 0), m(1, 1), m(2, 2), m(0, 1), m(0, 2), m(1, 2)}; }
+    double trace() const { return xx + yy + zz; }
+};
+
+struct Samples {
+    std::vector<Vec3d> position;            ///< p_i, world units
+    std::vector<Vec3d> normal;              ///< w_i, vector area (outward), world units²
+    std::vector<double> positionVariance;   ///< Σ_i = v_i I (isotropic for both noise models), world units²
+    std::vector<Sym3> normalCovariance;     ///< Σ'_i, world units⁴
+    double lengthScale = 0;                 ///< ℓ: mean edge length (soup) or mean nearest-neighbour spacing (cloud)
+
+    std::size_t size() const { return position.size(); }
+};
+
+}  // namespace gpisvdb

@@ -1,0 +1,58 @@
+#pragma once
+// The Barnes–Hut GPIS (paper Sec. 9.1, DESIGN §3.3): an octree over the samples, built once. Each node keeps
+// moments about its |w|-weighted centroid c (δ = p − c): for the mean Σ w, Σ δ wᵀ, Σ δδw (a Taylor expansion
+// of ∇ρ(y − δ) to second order), for the covariance Σ σ² w wᵀ, Σ σ² δ w wᵀ, Σ Σ', Σ δ Σ' (first order).
+// A node is used whole when ‖x − c‖ > β·r (r: its radius about c); otherwise its children, or its samples
+// exactly, are summed.
+#include <cstdint>
+#include <vector>
+
+#include "gpisvdb/input/samples.h"
+#include "gpisvdb/model/gpis_model.h"
+#include "gpisvdb/model/kernel.h"
+
+namespace gpisvdb {
+
+struct BarnesHutOptions {
+    double beta = 8.0;     ///< opening criterion: a node is far when distance > beta·radius (dimensionless, > 1)
+    int leafSize = 16;     ///< most samples in a leaf (≥ 1)
+};
+
+class BarnesHutGpis final : public GpisModel {
+public:
+    /// s: smoothing length of the kernel, world units (> 0). Builds the tree (O(n log n)).
+    BarnesHutGpis(const Samples& samples, double s, const BarnesHutOptions& options = {});
+    using GpisModel::evaluate;
+    ValueGradient evaluate(const Vec3d& x) const override;
+
+    std::size_t nodeCount() const { return nodes_.size(); }
+    /// Bytes held by the tree and its reordered copy of the samples.
+    std::size_t memoryBytes() const;
+
+    struct Node {
+        Vec3d centre;                 ///< expansion centre of the mean (|w|-weighted centroid)
+        double radius = 0;            ///< max distance of the node's samples to `centre`
+        Vec3d w0;                     ///< Σ w
+        Mat3d m1;                     ///< Σ δ wᵀ, δ = p − centre
+        double m2[3][3][3];           ///< Σ δ_l δ_m w_n
+        Mat3d posW;                   ///< Σ σ² w wᵀ
+        Mat3d posB[3];                ///< posB[n](l, m) = Σ σ² δ_l w_m w_n
+        Mat3d nrmS;                   ///< Σ Σ'
+        Mat3d nrmC[3];                ///< nrmC[l] = Σ δ_l Σ'
+        std::uint32_t begin = 0, end = 0;     ///< sample range (tree order)
+        std::uint32_t firstChild = 0;         ///< children are contiguous
+        std::uint8_t childCount = 0;
+    };
+
+private:
+    void split(std::uint32_t node, int depth);
+    void aggregate(Node& node) const;
+    void addFarNode(const Node& node, const Vec3d& x, ValueGradient& out) const;
+
+    Samples samples_;  // reordered so that every node's samples are contiguous
+    std::vector<Node> nodes_;
+    RegularizedKernel kernel_;
+    BarnesHutOptions options_;
+};
+
+}  // namespace gpisvdb

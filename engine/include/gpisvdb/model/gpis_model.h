@@ -1,0 +1,25 @@
+#pragma once
+// A GPIS model: at any point x, Z(x) = (φ(x), ∇φ(x)) is Gaussian with a mean in R⁴ and a 4×4 covariance
+// (paper Eq. 5, 7; DESIGN §3.3). Every task takes a GpisModel and nothing else of the input.
+#include <vector>
+
+#include "gpisvdb/core/progress.h"
+#include "gpisvdb/core/types.h"
+
+namespace gpisvdb {
+
+struct ValueGradient {
+    Vec4d mean = Vec4d::Zero();  ///< (γ, ∂xγ, ∂yγ, ∂zγ); gradient in world units⁻¹
+    Mat4d cov = Mat4d::Zero();   ///< covariance of (φ, ∂xφ, ∂yφ, ∂zφ)
+};
+
+class GpisModel {
+public:
+    virtual ~GpisModel() = default;
+    /// Mean and covariance at x (world units).
+    virtual ValueGradient evaluate(const Vec3d& x) const = 0;
+    /// Batch evaluation, parallel over points with TBB; results do not depend on the thread count.
+    std::vector<ValueGradient> evaluate(const std::vector<Vec3d>& xs, const Progress& progress = {}) const;
+};
+
+}  // namespace gpisvdb

@@ -1,0 +1,224 @@
+#include "gpisvdb/model/barnes_hut_gpis.h"
+
+#include <Eigen/Eigenvalues>
+#include <array>
+#include <cmath>
+#include <numeric>
+
+#include "contributions.h"
+#include "gpisvdb/core/errors.h"
+
+namespace gpisvdb {
+
+namespace {
+constexpr int kMaxDepth = 48;  // coincident samples stop splitting here
+}
+
+BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOptions& options)
+    : kernel_(s), options_(options) {
+    if (!(options.beta > 1) || !std::isfinite(options.beta))
+        throw ParameterError("--beta must be finite and > 1 (got " + std::to_string(options.beta) + ")");
+    if (options.leafSize < 1) throw ParameterError("the Barnes-Hut leaf size must be >= 1");
+    if (samples.size() == 0) throw InputError("no samples to build a GPIS from");
+    if (samples.size() >= std::size_t(UINT32_MAX)) throw InputError("too many samples (limit 2^32 - 1)");
+    samples_ = samples;
+    Node root;
+    root.begin = 0;
+    root.end = std::uint32_t(samples_.size());
+    aggregate(root);
+    nodes_.push_back(root);
+    split(0, 0);
+}
+
+std::size_t BarnesHutGpis::memoryBytes() const {
+    return nodes_.capacity() * sizeof(Node) +
+           samples_.size() * (2 * sizeof(Vec3d) + sizeof(double) + sizeof(Sym3));
+}
+
+// === Tree: split the samples' bounding box at its centre into octants, children contiguous in nodes_.
+void BarnesHutGpis::split(std::uint32_t self, int depth) {
+    const std::uint32_t begin = nodes_[self].begin, end = nodes_[self].end;
+    if (end - begin <= std::uint32_t(options_.leafSize) || depth >= kMaxDepth) return;
+    Vec3d lo = samples_.position[begin], hi = lo;
+    for (std::uint32_t i = begin; i < end; ++i) {
+        lo = lo.cwiseMin(samples_.position[i]);
+        hi = hi.cwiseMax(samples_.position[i]);
+    }
+    if ((hi - lo).maxCoeff() <= 0) return;  // all coincident
+    const Vec3d mid = 0.5 * (lo + hi);
+    auto octant = [&](std::uint32_t i) {
+        const Vec3d& p = samples_.position[i];
+        return std::size_t((p.x() > mid.x() ? 1 : 0) | (p.y() > mid.y() ? 2 : 0) | (p.z() > mid.z() ? 4 : 0));
+    };
+    // Stable counting sort of the range by octant: the tree depends on nothing but the input.
+    std::array<std::uint32_t, 9> start{};
+    for (std::uint32_t i = begin; i < end; ++i) ++start[octant(i) + 1];
+    for (int k = 0; k < 8; ++k) start[k + 1] += start[k];
+    std::vector<std::uint32_t> order(end - begin);
+    std::array<std::uint32_t, 8> fill;
+    std::copy(start.begin(), start.begin() + 8, fill.begin());
+    for (std::uint32_t i = begin; i < end; ++i) order[fill[octant(i)]++] = i;
+    auto permute = [&](auto& v) {
+        std::vector<typename std::decay_t<decltype(v)>::value_type> sorted(order.size());
+        for (std::size_t k = 0; k < order.size(); ++k) sorted[k] = v[order[k]];
+        std::copy(sorted.begin(), sorted.end(), v.begin() + begin);
+    };
+    permute(samples_.position);
+    permute(samples_.normal);
+    permute(samples_.positionVariance);
+    permute(samples_.normalCovariance);
+
+    const std::uint32_t first = std::uint32_t(nodes_.size());
+    for (int k = 0; k < 8; ++k) {
+        if (start[k + 1] == start[k]) continue;
+        Node child;
+        child.begin = begin + start[k];
+        child.end = begin + start[k + 1];
+        aggregate(child);
+        nodes_.push_back(child);
+    }
+    nodes_[self].firstChild = first;
+    nodes_[self].childCount = std::uint8_t(nodes_.size() - first);
+    for (std::uint32_t c = first; c < first + nodes_[self].childCount; ++c) split(c, depth + 1);
+}
+
+// === Far-field aggregates of one node (DESIGN §3.3)
+void BarnesHutGpis::aggregate(Node& node) const {
+    double wSum = 0;
+    Vec3d c = Vec3d::Zero(), lo = samples_.position[node.begin], hi = lo;
+    for (std::uint32_t i = node.begin; i < node.end; ++i) {
+        const Vec3d& p = samples_.position[i];
+        const double a = samples_.normal[i].norm();
+        wSum += a;
+        c += a * p;
+        lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    }
+    node.centre = wSum > 0 ? Vec3d(c / wSum) : Vec3d(0.5 * (lo + hi));
+
+    node.w0.setZero();
+    node.m1.setZero();
+    std::fill(&node.m2[0][0][0], &node.m2[0][0][0] + 27, 0.0);
+    node.posW.setZero();
+    node.nrmS.setZero();
+    for (int k = 0; k < 3; ++k) node.posB[k].setZero(), node.nrmC[k].setZero();
+    double r2 = 0;
+    for (std::uint32_t i = node.begin; i < node.end; ++i) {
+        const Vec3d& w = samples_.normal[i];
+        const Vec3d d = samples_.position[i] - node.centre;
+        const double v = samples_.positionVariance[i];
+        const Mat3d S = samples_.normalCovariance[i].matrix();
+        r2 = std::max(r2, d.squaredNorm());
+        node.w0 += w;
+        node.m1 += d * w.transpose();
+        for (int l = 0; l < 3; ++l)
+            for (int m = 0; m < 3; ++m)
+                for (int n = 0; n < 3; ++n) node.m2[l][m][n] += d[l] * d[m] * w[n];
+        const Mat3d dw = v * (d * w.transpose());
+        node.posW += v * (w * w.transpose());
+        for (int n = 0; n < 3; ++n) node.posB[n] += dw * w[n];
+        node.nrmS += S;
+        for (int l = 0; l < 3; ++l) node.nrmC[l] += d[l] * S;
+    }
+    node.radius = std::sqrt(r2);
+}
+
+namespace {
+
+/// (D³ρ : X)_k = Σ_lm D³ρ_klm X_lm for any 3×3 X.
+Vec3d contract3(const RadialDerivatives& F, const Vec3d& y, const Mat3d& X) {
+    const double tr = X.trace(), yXy = y.dot(X * y);
+    return F.F2 * (X * y + X.transpose() * y + tr * y) + (F.F3 * yXy) * y;
+}
+
+/// (D⁴ρ : X)_jk = Σ_lm D⁴ρ_jkml X_lm for any 3×3 X.
+Mat3d contract4(const RadialDerivatives& F, const Vec3d& y, const Mat3d& X) {
+    const double tr = X.trace(), yXy = y.dot(X * y);
+    const Vec3d z = (X + X.transpose()) * y;
+    Mat3d out = F.F2 * (X + X.transpose()) + F.F3 * (z * y.transpose() + y * z.transpose() + tr * (y * y.transpose())) +
+                (F.F4 * yXy) * (y * y.transpose());
+    out.diagonal().array() += F.F2 * tr + F.F3 * yXy;
+    return out;
+}
+
+/// D²ρ : X = Σ_lm D²ρ_lm X_lm.
+double contract2(const RadialDerivatives& F, const Vec3d& y, const Mat3d& X) { return F.F1 * X.trace() + F.F2 * y.dot(X * y); }
+
+}  // namespace
+
+void BarnesHutGpis::addFarNode(const Node& node, const Vec3d& x, ValueGradient& out) const {
+    const Vec3d y = x - node.centre;
+    const RadialDerivatives F = kernel_.at(y.squaredNorm());
+    const Mat3d D2 = RegularizedKernel::hessian(F, y);
+
+    // === Mean: ∇ρ(y − δ)·w and D²ρ(y − δ) w to second order in δ
+    const Mat3d& M1 = node.m1;
+    const auto& M2 = node.m2;
+    Vec3d tr = Vec3d::Zero(), um = Vec3d::Zero(), Q = Vec3d::Zero(), P = Vec3d::Zero();
+    for (int l = 0; l < 3; ++l)
+        for (int m = 0; m < 3; ++m) {
+            tr[m] += M2[l][l][m];
+            um[m] += M2[l][m][l];
+            for (int n = 0; n < 3; ++n) {
+                Q[l] += M2[l][m][n] * y[m] * y[n];
+                P[n] += M2[l][m][n] * y[l] * y[m];
+            }
+        }
+    const double Y3 = y.dot(P), ty = tr.dot(y), uy = um.dot(y);
+    out.mean[0] += F.F1 * y.dot(node.w0) - contract2(F, y, M1) + 0.5 * (F.F2 * (ty + 2 * uy) + F.F3 * Y3);
+    const Vec3d d4m2 = F.F2 * (2 * um + tr) + F.F3 * (2 * Q + P + (ty + 2 * uy) * y) + (F.F4 * Y3) * y;
+    out.mean.tail<3>() += D2 * node.w0 - contract3(F, y, M1) + 0.5 * d4m2;
+
+    // === Covariance to first order in δ. Q_m = J(y, e_m) = [D²ρ e_m; D³ρ·e_m] is also ∂_m K(y).
+    Mat43d Qm[3];
+    for (int m = 0; m < 3; ++m) {
+        Qm[m].row(0) = D2.col(m).transpose();
+        Qm[m].bottomRows<3>() = RegularizedKernel::thirdContracted(F, y, Vec3d::Unit(m));
+    }
+    // Position noise: Σ σ² J Jᵀ ≈ Σ_mn W_mn Q_m Q_nᵀ − (S + Sᵀ), S = Σ_n R_n Q_nᵀ, R_n = Σ_lm B_lmn ∂_l Q_m.
+    Mat4d S = Mat4d::Zero();
+    for (int m = 0; m < 3; ++m) {
+        Mat43d WQ = Mat43d::Zero();
+        for (int n = 0; n < 3; ++n) WQ += node.posW(m, n) * Qm[n];
+        Mat43d R;
+        R.row(0) = contract3(F, y, node.posB[m]).transpose();
+        R.bottomRows<3>() = contract4(F, y, node.posB[m]);
+        S.noalias() += Qm[m] * (0.5 * WQ - R).transpose();
+    }
+    out.cov += S + S.transpose();
+    // Normal noise: K Σ' Kᵀ − (U + Uᵀ), U = Σ_l ∂_l K C_l Kᵀ, K = [∇ρᵀ; D²ρ].
+    Mat43d K;
+    K.row(0) = (F.F1 * y).transpose();
+    K.bottomRows<3>() = D2;
+    Mat43d V = 0.5 * K * node.nrmS;
+    for (int l = 0; l < 3; ++l) V.noalias() -= Qm[l] * node.nrmC[l];
+    const Mat4d U = V * K.transpose();
+    out.cov += U + U.transpose();
+}
+
+ValueGradient BarnesHutGpis::evaluate(const Vec3d& x) const {
+    ValueGradient out;
+    std::array<std::uint32_t, 8 * kMaxDepth + 8> stack;
+    int top = 0;
+    stack[top++] = 0;
+    const double beta2 = options_.beta * options_.beta;
+    while (top > 0) {
+        const Node& node = nodes_[stack[--top]];
+        if ((x - node.centre).squaredNorm() > beta2 * node.radius * node.radius) {
+            addFarNode(node, x, out);
+        } else if (node.childCount == 0) {
+            for (std::uint32_t i = node.begin; i < node.end; ++i) {
+                const Vec3d y = x - samples_.position[i];
+                const RadialDerivatives F = kernel_.at(y.squaredNorm());
+                detail::addMean(F, y, samples_.normal[i], out.mean);
+                detail::addPositionNoise(F, y, samples_.normal[i], samples_.positionVariance[i], out.cov);
+                detail::addNormalNoise(F, y, samples_.normalCovariance[i].matrix(), out.cov);
+            }
+        } else {
+            for (int c = node.childCount - 1; c >= 0; --c) stack[top++] = node.firstChild + std::uint32_t(c);
+        }
+    }
+    detail::finish(out);
+    return out;
+}
+
+}  // namespace gpisvdb

@@ -1,0 +1,29 @@
+#pragma once
+// Shared test fixtures: data paths, random numbers, soups without shared vertices.
+#include <random>
+#include <string>
+
+#include "gpisvdb/input/triangle_soup.h"
+
+namespace gpisvdb::test {
+
+inline std::string dataPath(const std::string& name) { return std::string(GPISVDB_DATA_DIR) + "/" + name; }
+
+/// Every triangle with its own three vertices (a soup in the App. B sense: no shared noise).
+inline TriangleSoup unshare(const TriangleSoup& s) {
+    TriangleSoup out;
+    for (const auto& f : s.triangles) {
+        const int b = int(out.vertices.size());
+        for (int k = 0; k < 3; ++k) out.vertices.push_back(s.vertices[f[k]]);
+        out.triangles.push_back({b, b + 1, b + 2});
+    }
+    return out;
+}
+
+inline Vec3d randomUnit(std::mt19937_64& rng) {
+    std::normal_distribution<double> n;
+    Vec3d v(n(rng), n(rng), n(rng));
+    return v.normalized();
+}
+
+}  // namespace gpisvdb::test

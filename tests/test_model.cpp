@@ -1,0 +1,213 @@
+#include <catch2/catch.hpp>
+#include <Eigen/Geometry>
+#include <random>
+
+#include "gpisvdb/input/procedural.h"
+#include "gpisvdb/input/read_input.h"
+#include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/model/direct_gpis.h"
+#include "helpers.h"
+#include "gpisvdb/model/accuracy.h"
+#include <tbb/global_control.h>
+
+using namespace gpisvdb;
+
+namespace {
+
+/// Ray-parity inside test against the exact mesh (independent of the GPIS), majority over 3 rays.
+bool insideMesh(const TriangleSoup& m, const Vec3d& x) {
+    const Vec3d dirs[3] = {Vec3d(1, 0.123, 0.377).normalized(), Vec3d(-0.31, 1, 0.2).normalized(),
+                           Vec3d(0.17, -0.29, -1).normalized()};
+    int votes = 0;
+    for (const Vec3d& d : dirs) {
+        int hits = 0;
+        for (const auto& f : m.triangles) {
+            const Vec3d &a = m.vertices[f[0]], &b = m.vertices[f[1]], &c = m.vertices[f[2]];
+            const Vec3d e1 = b - a, e2 = c - a, pv = d.cross(e2);
+            const double det = e1.dot(pv);
+            if (std::abs(det) < 1e-14) continue;
+            const Vec3d tv = x - a;
+            const double u = tv.dot(pv) / det;
+            if (u < 0 || u > 1) continue;
+            const Vec3d qv = tv.cross(e1);
+            const double v = d.dot(qv) / det;
+            if (v < 0 || u + v > 1) continue;
+            if (e2.dot(qv) / det > 0) ++hits;
+        }
+        votes += hits % 2;
+    }
+    return votes >= 2;
+}
+
+double distanceToMesh(const TriangleSoup& m, const Vec3d& x) {
+    double best = 1e300;  // distance to triangle vertices and barycentres bounds the true distance from above
+    for (const auto& f : m.triangles)
+        for (int k = 0; k < 3; ++k) best = std::min(best, (m.vertices[f[k]] - x).norm());
+    return best;
+}
+
+void checkWindingNumber(const TriangleSoup& mesh, const char* name) {
+    const SoupSamples ss = soupSamples(mesh, {0.5});
+    const double ell = ss.samples.lengthScale;
+    const DirectGpis model(ss.samples, 0.4 * ell);
+    Vec3d lo = mesh.vertices[0], hi = lo;
+    for (const auto& v : mesh.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> U(0, 1);
+    int in = 0, out = 0;
+    for (int tries = 0; tries < 4000 && (in < 40 || out < 40); ++tries) {
+        const Vec3d pad = 0.2 * (hi - lo);
+        const Vec3d x = (lo - pad).array() + (hi - lo + 2 * pad).array() * Vec3d(U(rng), U(rng), U(rng)).array();
+        // Away from the surface by many smoothing lengths (γ's transition has width ~ s = 0.4 ℓ) plus the
+        // mesh's own edge length (the vertex distance over-estimates the true distance by up to an edge).
+        if (distanceToMesh(mesh, x) < 3 * ell) continue;
+        const bool inside = insideMesh(mesh, x);
+        if ((inside && in >= 40) || (!inside && out >= 40)) continue;
+        (inside ? in : out)++;
+        INFO(name << " at (" << x.transpose() << "), inside = " << inside);
+        CHECK(std::abs(model.evaluate(x).mean[0] - (inside ? 1.0 : 0.0)) <= 1e-2);
+    }
+    CHECK(in >= 20);
+    CHECK(out >= 40);
+}
+
+std::vector<Vec3d> nearAndFar(const Samples& s, std::size_t count, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> U(-1, 1);
+    Vec3d lo = s.position[0], hi = lo;
+    for (const auto& p : s.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    const double diag = (hi - lo).norm(), ell = s.lengthScale;
+    std::vector<Vec3d> xs;
+    for (std::size_t i = 0; i < count; ++i) {
+        if (i % 2 == 0) {  // near: within 3ℓ of a sample
+            const Vec3d& p = s.position[rng() % s.size()];
+            xs.push_back(p + 3 * ell * Vec3d(U(rng), U(rng), U(rng)));
+        } else {  // anywhere in a box three times the size of the input's
+            xs.push_back(0.5 * (lo + hi) + 1.5 * diag * Vec3d(U(rng), U(rng), U(rng)));
+        }
+    }
+    return xs;
+}
+
+}  // namespace
+
+TEST_CASE("model: regularized winding number is 1 inside and 0 outside (sphere, bunny, elephant)", "[model]") {
+    checkWindingNumber(icosphere(4), "sphere");
+    checkWindingNumber(*readInput(test::dataPath("bunny.obj")).soup, "bunny");
+    checkWindingNumber(*readInput(test::dataPath("elephant.off")).soup, "elephant");
+}
+
+TEST_CASE("model: Barnes-Hut matches the direct sum on all 14 numbers at the default beta", "[model]") {
+    for (const char* which : {"sphere", "bunny", "cloud"}) {
+        Samples s;
+        if (std::string(which) == "sphere") s = soupSamples(icosphere(4), {0.5}).samples;
+        else if (std::string(which) == "bunny") s = makeSamples(readInput(test::dataPath("bunny.obj")), {0.5}).samples;
+        else s = makeSamples(readInput(test::dataPath("sphere_20k_normal.xyz")), {0.5}).samples;
+        const double sm = 0.4 * s.lengthScale;
+        const DirectGpis direct(s, sm);
+        const BarnesHutGpis bh(s, sm);
+        const auto xs = nearAndFar(s, 2000, 11);
+        const auto ref = direct.evaluate(xs);
+        const auto got = bh.evaluate(xs);
+        const ModelError e = compareModels(ref, got);
+        INFO(which << ": " << e.describe());
+        CHECK(e.worst() <= 1e-3);
+    }
+}
+
+TEST_CASE("model: Barnes-Hut converges to the direct sum as beta grows", "[model]") {
+    const Samples s = soupSamples(icosphere(4), {0.5}).samples;
+    const DirectGpis direct(s, 0.4 * s.lengthScale);
+    const auto xs = nearAndFar(s, 600, 5);
+    const auto ref = direct.evaluate(xs);
+    double previous = 1e300;
+    for (double beta : {1.5, 3.0, 6.0}) {
+        BarnesHutOptions o;
+        o.beta = beta;
+        const double err = compareModels(ref, BarnesHutGpis(s, 0.4 * s.lengthScale, o).evaluate(xs)).worst();
+        INFO("beta = " << beta << ": " << err);
+        CHECK(err < previous);
+        previous = err;
+    }
+}
+
+TEST_CASE("model: batch results do not depend on the thread count", "[model]") {
+    const Samples s = soupSamples(icosphere(3), {0.5}).samples;
+    const BarnesHutGpis bh(s, 0.4 * s.lengthScale);
+    const auto xs = nearAndFar(s, 3000, 2);
+    std::vector<ValueGradient> one, two;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        one = bh.evaluate(xs);
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        two = bh.evaluate(xs);
+    }
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+        REQUIRE(one[i].mean == two[i].mean);
+        REQUIRE(one[i].cov == two[i].cov);
+    }
+}
+
+TEST_CASE("model: translation and rotation move the field with the input", "[model]") {
+    const TriangleSoup base = *readInput(test::dataPath("bunny.obj")).soup;
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
+    const Vec3d t(10.0, -5.0, 3.0);
+    TriangleSoup moved = base;
+    for (auto& v : moved.vertices) v = R * v + t;
+    const Samples a = soupSamples(base, {0.5}).samples, b = soupSamples(moved, {0.5}).samples;
+    REQUIRE(a.lengthScale == Approx(b.lengthScale).epsilon(1e-12));
+    const BarnesHutGpis ma(a, 0.4 * a.lengthScale), mb(b, 0.4 * b.lengthScale);
+    const DirectGpis da(a, 0.4 * a.lengthScale), db(b, 0.4 * b.lengthScale);
+    Mat4d B = Mat4d::Identity();
+    B.bottomRightCorner<3, 3>() = R;
+    const std::vector<Vec3d> xs = nearAndFar(a, 400, 9);
+    std::vector<Vec3d> ys;
+    for (const Vec3d& x : xs) ys.push_back(R * x + t);
+    for (int exact = 0; exact < 2; ++exact) {
+        std::vector<ValueGradient> va = exact ? da.evaluate(xs) : ma.evaluate(xs);
+        const std::vector<ValueGradient> vb = exact ? db.evaluate(ys) : mb.evaluate(ys);
+        for (auto& v : va) v.mean = B * v.mean, v.cov = B * v.cov * B.transpose();
+        // A moved input builds a different tree: Barnes-Hut agrees to its own accuracy (2 × 1e-3), the direct
+        // sum to rounding.
+        const double err = compareModels(va, vb).worst();
+        INFO("exact = " << exact << ": " << compareModels(va, vb).describe());
+        CHECK(err <= (exact ? 1e-10 : 2e-3));
+    }
+}
+
+TEST_CASE("model: scaling the input scales results as dimensional analysis says", "[model]") {
+    const TriangleSoup base = icosphere(3);
+    const Samples a = soupSamples(base, {0.5}).samples;
+    const DirectGpis da(a, 0.4 * a.lengthScale);
+    const BarnesHutGpis ba(a, 0.4 * a.lengthScale);
+    for (double c : {1e-3, 1e3}) {
+        TriangleSoup scaled = base;
+        for (auto& v : scaled.vertices) v *= c;
+        const Samples b = soupSamples(scaled, {0.5}).samples;
+        const DirectGpis db(b, 0.4 * b.lengthScale);
+        const BarnesHutGpis bb(b, 0.4 * b.lengthScale);
+        // γ is dimensionless, ∇ carries 1/length: mean (1, 1/c, 1/c, 1/c), covariance D C D with D = diag(1, 1/c…)
+        Mat4d D = Mat4d::Identity() / c;
+        D(0, 0) = 1;
+        for (const Vec3d& x : nearAndFar(a, 40, 4)) {
+            for (int exact = 0; exact < 2; ++exact) {
+                const ValueGradient va = exact ? da.evaluate(x) : ba.evaluate(x);
+                const ValueGradient vb = exact ? db.evaluate(c * x) : bb.evaluate(c * x);
+                INFO("c = " << c << ", exact = " << exact);
+                CHECK((D * va.mean - vb.mean).norm() <= 1e-9 * (D * va.mean).norm() + 1e-14 / c);
+                CHECK((D * va.cov * D - vb.cov).norm() <= 1e-9 * (D * va.cov * D).norm());
+            }
+        }
+    }
+}
+
+TEST_CASE("model: Barnes-Hut refuses beta <= 1 and empty samples", "[model]") {
+    const Samples s = soupSamples(icosphere(1), {0.5}).samples;
+    BarnesHutOptions o;
+    o.beta = 1.0;
+    CHECK_THROWS_AS(BarnesHutGpis(s, 0.1, o), ParameterError);
+    CHECK_THROWS_AS(BarnesHutGpis(Samples{}, 0.1), InputError);
+    CHECK_THROWS_AS(DirectGpis(s, -1.0), ParameterError);
+}
