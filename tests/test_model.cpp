@@ -211,3 +211,42 @@ TEST_CASE("model: Barnes-Hut refuses beta <= 1 and empty samples", "[model]") {
     CHECK_THROWS_AS(BarnesHutGpis(Samples{}, 0.1), InputError);
     CHECK_THROWS_AS(DirectGpis(s, -1.0), ParameterError);
 }
+
+TEST_CASE("model: the linearised covariance matches Monte-Carlo over perturbed vertices (sigma_rel = 0.02)", "[model]") {
+    const TriangleSoup soup = test::unshare(icosphere(2));
+    const double sigmaRel = 0.02;
+    const SoupSamples base = soupSamples(soup, {sigmaRel});
+    const double ell = base.samples.lengthScale, s = 0.4 * ell;
+    const DirectGpis model(base.samples, s);
+    const std::vector<Vec3d> xs = {Vec3d(0, 0, 1.0 + 0.3 * ell), Vec3d(0.6, 0.0, 0.8 - 0.2 * ell),
+                                   Vec3d(0.577, 0.577, 0.577), Vec3d(0.2, 0.1, 0.3)};
+    const int K = 2500;
+    std::mt19937_64 rng(123);
+    std::normal_distribution<double> N(0, base.sigma);
+    std::vector<std::vector<Vec4d>> draws(xs.size());
+    for (int k = 0; k < K; ++k) {
+        TriangleSoup noisy = soup;
+        for (auto& v : noisy.vertices) v += Vec3d(N(rng), N(rng), N(rng));
+        const DirectGpis perturbed(soupSamples(noisy, {sigmaRel}).samples, s);  // same s: only the data moves
+        for (std::size_t q = 0; q < xs.size(); ++q) draws[q].push_back(perturbed.evaluate(xs[q]).mean);
+    }
+    for (std::size_t q = 0; q < xs.size(); ++q) {
+        const ValueGradient ref = model.evaluate(xs[q]);
+        Vec4d mean = Vec4d::Zero();
+        for (const auto& d : draws[q]) mean += d / K;
+        Mat4d cov = Mat4d::Zero();
+        for (const auto& d : draws[q]) cov += (d - mean) * (d - mean).transpose() / (K - 1);
+        for (int a = 0; a < 4; ++a) {
+            // Monte-Carlo standard errors, 5 of them, plus 2% for what the linearisation leaves out.
+            const double seMean = std::sqrt(ref.cov(a, a) / K);
+            INFO("point " << q << ", component " << a);
+            CHECK(std::abs(mean[a] - ref.mean[a]) <= 5 * seMean + 0.02 * std::sqrt(ref.cov(a, a)));
+            for (int b = 0; b < 4; ++b) {
+                const double scale = std::sqrt(ref.cov(a, a) * ref.cov(b, b));
+                const double se = std::sqrt((scale * scale + ref.cov(a, b) * ref.cov(a, b)) / K);
+                INFO("cov(" << a << "," << b << "): model " << ref.cov(a, b) << ", Monte-Carlo " << cov(a, b));
+                CHECK(std::abs(cov(a, b) - ref.cov(a, b)) <= 5 * se + 0.02 * scale);
+            }
+        }
+    }
+}

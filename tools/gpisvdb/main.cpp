@@ -1,1 +1,41 @@
-int main(){}
+// gpisvdb: uncertainty-aware geometry processing on Gaussian Process Implicit Surfaces.
+// Exit codes: 0 success, 1 error (input, parameter, output), 2 usage error, 130 interrupted.
+#include <iostream>
+
+#include "commands.h"
+#include "common.h"
+#include "gpisvdb/core/errors.h"
+
+int main(int argc, char** argv) {
+    using namespace gpisvdb;
+    CLI::App app{"gpisvdb: geometry processing on Gaussian Process Implicit Surfaces (GPIS), on OpenVDB"};
+    app.set_version_flag("--version", std::string("gpisvdb ") + GPISVDB_VERSION);
+    app.require_subcommand(1);
+    app.footer("Run 'gpisvdb COMMAND --help' for the flags and examples of each command.");
+    cli::Action action;
+    cli::addInfo(app, action);
+    cli::addEvaluate(app, action);
+    cli::addDemo(app, action);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        app.exit(e);
+        return 2;
+    }
+    cli::installInterruptHandler();
+    try {
+        action();
+    } catch (const Cancelled&) {
+        std::cerr << "gpisvdb: interrupted, no output written\n";
+        return 130;
+    } catch (const Error& e) {
+        std::cerr << "gpisvdb: error: " << e.what() << "\n";
+        return 1;
+    } catch (const std::exception& e) {
+        std::cerr << "gpisvdb: internal error: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}

@@ -25,7 +25,10 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     if (n < 2) throw InputError("a point cloud needs at least 2 points (got " + std::to_string(n) + ")");
     if (cloud.normals.size() != n) throw InputError("the point cloud has no normals (need nx ny nz per point)");
 
-    // === Local spacing: nearest neighbour (ℓ) and k-th neighbour (area a_i = π r_k² / k)
+    // === Local spacing. ℓ: mean nearest-neighbour distance. Area: a_i = π R² / (points in the cylinder of
+    // radius R and half-height R around p_i along n_i), R = 2 × the distance to the k-th neighbour. The
+    // cylinder counts the whole thickness of a noisy cloud, so the estimate is of the surface density even
+    // when the position noise exceeds the spacing (a 3D ball count would over-estimate areas there).
     CloudAdaptor adaptor{cloud.positions};
     KdTree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     tree.buildIndex();
@@ -33,11 +36,25 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     std::vector<double> area(n), nearest(n);
     std::vector<std::size_t> idx(k + 1);
     std::vector<double> d2(k + 1);
+    std::vector<std::pair<std::size_t, double>> ball;
     for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t found = tree.knnSearch(cloud.positions[i].data(), k + 1, idx.data(), d2.data());
+        const Vec3d& p = cloud.positions[i];
+        const std::size_t found = tree.knnSearch(p.data(), k + 1, idx.data(), d2.data());
         // The first hit is the point itself (distance 0); duplicates also show as 0.
         nearest[i] = found > 1 ? std::sqrt(d2[1]) : 0.0;
-        area[i] = found > 1 ? M_PI * d2[found - 1] / double(found - 1) : 0.0;
+        const double R = 2.0 * std::sqrt(d2[found - 1]);
+        const double len = cloud.normals[i].norm();
+        if (!(R > 0) || !(len > 0)) continue;
+        const Vec3d nrm = cloud.normals[i] / len;
+        ball.clear();
+        tree.radiusSearch(p.data(), 2.0 * R * R, ball, nanoflann::SearchParams(32, 0, false));
+        std::size_t inside = 0;
+        for (const auto& [j, dist2] : ball) {
+            const Vec3d d = cloud.positions[j] - p;
+            const double h = d.dot(nrm);
+            if (std::abs(h) <= R && d.squaredNorm() - h * h <= R * R) ++inside;
+        }
+        area[i] = M_PI * R * R / double(std::max<std::size_t>(inside, 1));
     }
     double ell = 0;
     for (double d : nearest) ell += d;

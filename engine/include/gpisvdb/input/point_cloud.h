@@ -16,7 +16,7 @@ struct PointCloud {
 
 struct CloudNoiseOptions {
     double sigmaRel = 0.5;  ///< default position std relative to ℓ when a point has no sigma, > 0
-    int areaNeighbours = 8; ///< k of the k-nearest-neighbour area estimate a_i = π r_k² / k
+    int areaNeighbours = 8; ///< k: the area estimate counts points in a cylinder of radius 2 × (k-th neighbour distance)
 };
 
 struct CloudSamples {

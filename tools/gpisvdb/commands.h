@@ -1,0 +1,13 @@
+#pragma once
+// One function per subcommand: registers its flags and returns the action to run after parsing.
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace gpisvdb::cli {
+
+using Action = std::function<void()>;
+void addInfo(CLI::App& app, Action& action);
+void addEvaluate(CLI::App& app, Action& action);
+void addDemo(CLI::App& app, Action& action);
+
+}  // namespace gpisvdb::cli

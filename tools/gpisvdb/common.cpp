@@ -1,0 +1,102 @@
+#include "common.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <tbb/global_control.h>
+
+#include "gpisvdb/core/errors.h"
+#include "gpisvdb/model/direct_gpis.h"
+
+namespace gpisvdb::cli {
+
+namespace {
+std::atomic<bool> gInterrupted{false};
+extern "C" void onSigint(int) { gInterrupted = true; }
+}  // namespace
+
+void installInterruptHandler() {
+    std::signal(SIGINT, onSigint);
+    std::signal(SIGTERM, onSigint);
+}
+bool interruptRequested() { return gInterrupted; }
+
+void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
+    app.add_option("--sigma", f.sigmaRel, "noise std σ of vertices/points, relative to the length scale ℓ (> 0)")
+        ->capture_default_str();
+    if (withModel) {
+        app.add_option("--smoothing", f.smoothingRel, "kernel smoothing s, relative to ℓ (> 0)")->capture_default_str();
+        app.add_option("--beta", f.beta, "Barnes-Hut opening criterion: a node is far beyond beta × its radius (> 1)")
+            ->capture_default_str();
+        app.add_flag("--exact", f.exact, "use the direct O(n) sum instead of Barnes-Hut");
+    }
+    app.add_option("--threads", f.threads, "worker threads (0 = all cores)")->capture_default_str();
+    app.add_flag("--quiet", f.quiet, "no progress bar");
+}
+
+std::shared_ptr<void> limitThreads(int threads) {
+    if (threads < 0) throw ParameterError("--threads must be >= 0 (got " + std::to_string(threads) + ")");
+    if (threads == 0) return nullptr;
+    return std::make_shared<tbb::global_control>(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+}
+
+LoadedModel loadModel(const InputData& data, const ModelFlags& flags) {
+    if (!(flags.smoothingRel > 0) || !std::isfinite(flags.smoothingRel))
+        throw ParameterError("--smoothing must be finite and > 0 (got " + std::to_string(flags.smoothingRel) + ")");
+    LoadedModel m;
+    m.input = makeSamples(data, {flags.sigmaRel});
+    m.smoothing = flags.smoothingRel * m.input.samples.lengthScale;
+    if (flags.exact) {
+        m.model = std::make_unique<DirectGpis>(m.input.samples, m.smoothing);
+    } else {
+        BarnesHutOptions o;
+        o.beta = flags.beta;
+        m.model = std::make_unique<BarnesHutGpis>(m.input.samples, m.smoothing, o);
+    }
+    return m;
+}
+
+AtomicOutput::AtomicOutput(std::string path) : path_(std::move(path)) {
+    namespace fs = std::filesystem;
+    const fs::path target(path_);
+    std::error_code ec;
+    if (fs::is_directory(target, ec)) throw OutputError(path_ + ": is a directory, expected a file name");
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    if (!fs::is_directory(dir, ec)) throw OutputError(path_ + ": the directory " + dir.string() + " does not exist");
+    std::random_device rd;
+    temp_ = (dir / (target.filename().string() + ".tmp-" + std::to_string(rd() % 1000000))).string();
+    std::ofstream probe(temp_);
+    if (!probe) throw OutputError(path_ + ": cannot write in " + dir.string());
+}
+
+AtomicOutput::~AtomicOutput() {
+    if (!committed_) std::remove(temp_.c_str());
+}
+
+void AtomicOutput::commit() {
+    std::error_code ec;
+    std::filesystem::rename(temp_, path_, ec);
+    if (ec) throw OutputError(path_ + ": cannot rename the finished output into place: " + ec.message());
+    committed_ = true;
+}
+
+Progress makeProgress(bool quiet) {
+    Progress p;
+    p.interrupted = [] { return interruptRequested(); };
+    if (quiet || !isatty(STDERR_FILENO)) return p;
+    p.report = [](const std::string& stage, double f) {
+        const int width = 30, filled = int(f * width + 0.5);
+        std::fprintf(stderr, "\r%-10s [%s%s] %3d%%", stage.c_str(), std::string(std::size_t(filled), '#').c_str(),
+                     std::string(std::size_t(width - filled), ' ').c_str(), int(f * 100 + 0.5));
+        if (f >= 1.0) std::fprintf(stderr, "\n");
+        std::fflush(stderr);
+    };
+    return p;
+}
+
+}  // namespace gpisvdb::cli

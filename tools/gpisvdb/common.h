@@ -1,0 +1,54 @@
+#pragma once
+// Shared pieces of the command line: model flags, outputs written atomically, progress and Ctrl-C.
+#include <CLI/CLI.hpp>
+#include <memory>
+#include <string>
+
+#include "gpisvdb/core/progress.h"
+#include "gpisvdb/input/read_input.h"
+#include "gpisvdb/model/barnes_hut_gpis.h"
+
+namespace gpisvdb::cli {
+
+/// Flags every subcommand that builds a GPIS shares (same names and meanings everywhere).
+struct ModelFlags {
+    double sigmaRel = 0.5;      ///< --sigma: vertex/point noise std relative to ℓ
+    double smoothingRel = 0.4;  ///< --smoothing: kernel smoothing s relative to ℓ
+    double beta = BarnesHutOptions{}.beta;  ///< --beta: Barnes–Hut opening criterion
+    bool exact = false;         ///< --exact: direct O(n) sums instead of Barnes–Hut
+    int threads = 0;            ///< --threads: 0 = all cores
+    bool quiet = false;         ///< --quiet: no progress bar
+};
+void addModelFlags(CLI::App& app, ModelFlags& flags, bool withModel);
+
+/// Applies --threads for the life of the returned object.
+std::shared_ptr<void> limitThreads(int threads);
+
+struct LoadedModel {
+    InputSamples input;
+    double smoothing = 0;  ///< absolute s, world units
+    std::unique_ptr<GpisModel> model;
+};
+LoadedModel loadModel(const InputData& data, const ModelFlags& flags);
+
+/// A file written under a temporary name in the target's directory and renamed on commit(); removed
+/// if never committed (error or interrupt). Opening fails at once when the directory is not writable.
+class AtomicOutput {
+public:
+    explicit AtomicOutput(std::string path);
+    ~AtomicOutput();
+    const std::string& tempPath() const { return temp_; }
+    void commit();
+
+private:
+    std::string path_, temp_;
+    bool committed_ = false;
+};
+
+/// Progress on stderr when it is a terminal (and not --quiet); interrupted after Ctrl-C.
+Progress makeProgress(bool quiet);
+/// Installs the Ctrl-C handler (sets a flag the Progress polls).
+void installInterruptHandler();
+bool interruptRequested();
+
+}  // namespace gpisvdb::cli
