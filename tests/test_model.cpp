@@ -191,14 +191,17 @@ TEST_CASE("model: scaling the input scales results as dimensional analysis says"
         // γ is dimensionless, ∇ carries 1/length: mean (1, 1/c, 1/c, 1/c), covariance D C D with D = diag(1, 1/c…)
         Mat4d D = Mat4d::Identity() / c;
         D(0, 0) = 1;
-        for (const Vec3d& x : nearAndFar(a, 40, 4)) {
-            for (int exact = 0; exact < 2; ++exact) {
-                const ValueGradient va = exact ? da.evaluate(x) : ba.evaluate(x);
-                const ValueGradient vb = exact ? db.evaluate(c * x) : bb.evaluate(c * x);
-                INFO("c = " << c << ", exact = " << exact);
-                CHECK((D * va.mean - vb.mean).norm() <= 1e-9 * (D * va.mean).norm() + 1e-14 / c);
-                CHECK((D * va.cov * D - vb.cov).norm() <= 1e-9 * (D * va.cov * D).norm());
-            }
+        const std::vector<Vec3d> xs = nearAndFar(a, 200, 4);
+        std::vector<Vec3d> ys;
+        for (const Vec3d& x : xs) ys.push_back(c * x);
+        for (int exact = 0; exact < 2; ++exact) {
+            std::vector<ValueGradient> va = exact ? da.evaluate(xs) : ba.evaluate(xs);
+            const std::vector<ValueGradient> vb = exact ? db.evaluate(ys) : bb.evaluate(ys);
+            for (auto& v : va) v.mean = D * v.mean, v.cov = D * v.cov * D;
+            // The direct sum scales to rounding; a scaled input may split its octree differently where samples
+            // sit on a splitting plane, so Barnes-Hut agrees to its own accuracy.
+            INFO("c = " << c << ", exact = " << exact << ": " << compareModels(va, vb).describe());
+            CHECK(compareModels(va, vb).worst() <= (exact ? 1e-10 : 2e-3));
         }
     }
 }

@@ -97,7 +97,7 @@ void BarnesHutGpis::aggregate(Node& node) const {
 
     node.w0.setZero();
     node.m1.setZero();
-    std::fill(&node.m2[0][0][0], &node.m2[0][0][0] + 27, 0.0);
+    for (auto& m : node.m2) m.setZero();
     node.posW.setZero();
     node.nrmS.setZero();
     for (int k = 0; k < 3; ++k) node.posB[k].setZero(), node.nrmC[k].setZero();
@@ -110,9 +110,8 @@ void BarnesHutGpis::aggregate(Node& node) const {
         r2 = std::max(r2, d.squaredNorm());
         node.w0 += w;
         node.m1 += d * w.transpose();
-        for (int l = 0; l < 3; ++l)
-            for (int m = 0; m < 3; ++m)
-                for (int n = 0; n < 3; ++n) node.m2[l][m][n] += d[l] * d[m] * w[n];
+        const Mat3d dd = d * d.transpose();
+        for (int n = 0; n < 3; ++n) node.m2[n] += w[n] * dd;
         const Mat3d dw = v * (d * w.transpose());
         node.posW += v * (w * w.transpose());
         for (int n = 0; n < 3; ++n) node.posB[n] += dw * w[n];
@@ -120,6 +119,8 @@ void BarnesHutGpis::aggregate(Node& node) const {
         for (int l = 0; l < 3; ++l) node.nrmC[l] += d[l] * S;
     }
     node.radius = std::sqrt(r2);
+    for (int n = 0; n < 3; ++n) node.m2trace[n] = node.m2[n].trace();
+    node.m2mixed = node.m2[0].row(0).transpose() + node.m2[1].row(1).transpose() + node.m2[2].row(2).transpose();
 }
 
 namespace {
@@ -145,28 +146,29 @@ double contract2(const RadialDerivatives& F, const Vec3d& y, const Mat3d& X) { r
 
 }  // namespace
 
-void BarnesHutGpis::addFarNode(const Node& node, const Vec3d& x, ValueGradient& out) const {
-    const Vec3d y = x - node.centre;
-    const RadialDerivatives F = kernel_.at(y.squaredNorm());
+void BarnesHutGpis::addFarMean(const Node& node, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const {
     const Mat3d D2 = RegularizedKernel::hessian(F, y);
 
     // === Mean: ∇ρ(y − δ)·w and D²ρ(y − δ) w to second order in δ
+    // With M2_lmn = Σ δ_l δ_m w_n: tr_n = Σ_l M2_lln, um_m = Σ_l M2_lml, Q_l = Σ_mn M2_lmn y_m y_n,
+    // P_n = Σ_lm M2_lmn y_l y_m (derivation in docs/model.md).
     const Mat3d& M1 = node.m1;
-    const auto& M2 = node.m2;
-    Vec3d tr = Vec3d::Zero(), um = Vec3d::Zero(), Q = Vec3d::Zero(), P = Vec3d::Zero();
-    for (int l = 0; l < 3; ++l)
-        for (int m = 0; m < 3; ++m) {
-            tr[m] += M2[l][l][m];
-            um[m] += M2[l][m][l];
-            for (int n = 0; n < 3; ++n) {
-                Q[l] += M2[l][m][n] * y[m] * y[n];
-                P[n] += M2[l][m][n] * y[l] * y[m];
-            }
-        }
+    const Vec3d& tr = node.m2trace;
+    const Vec3d& um = node.m2mixed;
+    Vec3d P, Q = Vec3d::Zero();
+    for (int n = 0; n < 3; ++n) {
+        const Vec3d v = node.m2[n] * y;
+        P[n] = y.dot(v);
+        Q += y[n] * v;
+    }
     const double Y3 = y.dot(P), ty = tr.dot(y), uy = um.dot(y);
     out.mean[0] += F.F1 * y.dot(node.w0) - contract2(F, y, M1) + 0.5 * (F.F2 * (ty + 2 * uy) + F.F3 * Y3);
     const Vec3d d4m2 = F.F2 * (2 * um + tr) + F.F3 * (2 * Q + P + (ty + 2 * uy) * y) + (F.F4 * Y3) * y;
     out.mean.tail<3>() += D2 * node.w0 - contract3(F, y, M1) + 0.5 * d4m2;
+}
+
+void BarnesHutGpis::addFarCovariance(const Node& node, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const {
+    const Mat3d D2 = RegularizedKernel::hessian(F, y);
 
     // === Covariance to first order in δ. Q_m = J(y, e_m) = [D²ρ e_m; D³ρ·e_m] is also ∂_m K(y).
     Mat43d Qm[3];
@@ -197,28 +199,51 @@ void BarnesHutGpis::addFarNode(const Node& node, const Vec3d& x, ValueGradient& 
 
 ValueGradient BarnesHutGpis::evaluate(const Vec3d& x) const {
     ValueGradient out;
-    std::array<std::uint32_t, 8 * kMaxDepth + 8> stack;
+    // Stack entries: node index, and which parts (bit 0 mean, bit 1 covariance) an ancestor already summed.
+    std::array<std::pair<std::uint32_t, std::uint8_t>, 8 * kMaxDepth + 8> stack;
     int top = 0;
-    stack[top++] = 0;
-    const double beta2 = options_.beta * options_.beta;
+    stack[top++] = {0u, std::uint8_t(0)};
+    const double betaMean2 = options_.beta * options_.beta;
     while (top > 0) {
-        const Node& node = nodes_[stack[--top]];
-        if ((x - node.centre).squaredNorm() > beta2 * node.radius * node.radius) {
-            addFarNode(node, x, out);
-        } else if (node.childCount == 0) {
-            for (std::uint32_t i = node.begin; i < node.end; ++i) {
-                const Vec3d y = x - samples_.position[i];
-                const RadialDerivatives F = kernel_.at(y.squaredNorm());
-                detail::addMean(F, y, samples_.normal[i], out.mean);
-                detail::addPositionNoise(F, y, samples_.normal[i], samples_.positionVariance[i], out.cov);
-                detail::addNormalNoise(F, y, samples_.normalCovariance[i].matrix(), out.cov);
-            }
-        } else {
-            for (int c = node.childCount - 1; c >= 0; --c) stack[top++] = node.firstChild + std::uint32_t(c);
+        auto [index, done] = stack[--top];
+        const Node& node = nodes_[index];
+        const Vec3d y = x - node.centre;
+        const double d2 = y.squaredNorm(), r2 = node.radius * node.radius;
+        const bool farMean = !(done & 1) && d2 > betaMean2 * r2;
+        const bool farCov = !(done & 2) && d2 > covarianceBeta2(d2) * r2;
+        if (farMean || farCov) {
+            const RadialDerivatives F = kernel_.at(d2);
+            if (farMean) addFarMean(node, y, F, out), done |= 1;
+            if (farCov) addFarCovariance(node, y, F, out), done |= 2;
         }
+        if (done == 3) continue;
+        if (node.childCount == 0) {
+            for (std::uint32_t i = node.begin; i < node.end; ++i) {
+                const Vec3d yi = x - samples_.position[i];
+                const RadialDerivatives F = kernel_.at(yi.squaredNorm());
+                if (!(done & 1)) detail::addMean(F, yi, samples_.normal[i], out.mean);
+                if (!(done & 2)) {
+                    detail::addPositionNoise(F, yi, samples_.normal[i], samples_.positionVariance[i], out.cov);
+                    detail::addNormalNoise(F, yi, samples_.normalCovariance[i].matrix(), out.cov);
+                }
+            }
+            continue;
+        }
+        for (int c = node.childCount - 1; c >= 0; --c) stack[top++] = {node.firstChild + std::uint32_t(c), done};
     }
     detail::finish(out);
     return out;
+}
+
+double BarnesHutGpis::covarianceBeta2(double d2) const {
+    // The covariance's relative truncation error per node has a large constant (its terms fall off like
+    // 1/d⁴…1/d⁸), so near the query it needs twice the mean's ratio. Far away its terms are small against the
+    // near field: a node's absolute error falls like (r/d)⁴ (L/d)², so the ratio may relax like √(L/d) beyond
+    // L = covarianceRelax·s, down to 2.
+    const double b2 = 4.0 * options_.beta * options_.beta;
+    const double L = options_.covarianceRelax * kernel_.smoothing();
+    if (d2 <= L * L) return b2;
+    return std::max(4.0, b2 * L / std::sqrt(d2));
 }
 
 }  // namespace gpisvdb

@@ -8,7 +8,17 @@ namespace gpisvdb {
 
 namespace {
 constexpr double kSwitchAR = 2.0;  // series below a·r = 2: terms (a²t)^m/m! stay ≤ 4^m/m!, no cancellation
-constexpr int kSeriesTerms = 40;   // 4^40/40! < 1e-23: far below double rounding
+constexpr int kSeriesTerms = 34;   // 4^34/34! < 1e-18: below double rounding
+constexpr double kFarAR = 8.0;     // beyond a·r = 8, erf = 1 and exp(−a²r²)·(ar)^8 < 1e-20: pure Newton terms
+
+struct SeriesTable {
+    double inv[kSeriesTerms][5];  // 1 / (2m + 2k + 1)
+    SeriesTable() {
+        for (int m = 0; m < kSeriesTerms; ++m)
+            for (int k = 0; k < 5; ++k) inv[m][k] = 1.0 / double(2 * m + 2 * k + 1);
+    }
+};
+const SeriesTable kSeries;
 }  // namespace
 
 RegularizedKernel::RegularizedKernel(double s) : s_(s) {
@@ -18,6 +28,7 @@ RegularizedKernel::RegularizedKernel(double s) : s_(s) {
     a2_ = a_ * a_;
     c_ = 2.0 * a_ / std::sqrt(M_PI);
     tSwitch_ = (kSwitchAR / a_) * (kSwitchAR / a_);
+    tFar_ = (kFarAR / a_) * (kFarAR / a_);
 }
 
 RadialDerivatives RegularizedKernel::at(double t) const {
@@ -28,7 +39,7 @@ RadialDerivatives RegularizedKernel::at(double t) const {
         double term = 1.0;  // (−a² t)^m / m!
         const double x = -a2_ * t;
         for (int m = 0; m < kSeriesTerms; ++m) {
-            for (int k = 0; k < 5; ++k) sum[k] += term / double(2 * m + 2 * k + 1);
+            for (int k = 0; k < 5; ++k) sum[k] += term * kSeries.inv[m][k];
             term *= x / double(m + 1);
         }
         double scale = c_;  // c (−a²)^k 2^k
@@ -42,8 +53,9 @@ RadialDerivatives RegularizedKernel::at(double t) const {
     // === Closed forms: F_k = c_k erf(ar) r^-(2k+1) + g P_k(r), g = (2a/√π) exp(−a²r²),
     // c_{k+1} = −(2k+1) c_k, P_{k+1} = c_k r^-(2k+2) − 2a² P_k + P_k′/r.
     const double r = std::sqrt(t);
-    const double E = std::erf(a_ * r);
-    const double g = c_ * std::exp(-a2_ * t);
+    const bool far = t > tFar_;
+    const double E = far ? 1.0 : std::erf(a_ * r);
+    const double g = far ? 0.0 : c_ * std::exp(-a2_ * t);
     const double u = 1.0 / t;  // r^-2
     const double a2 = a2_, a4 = a2 * a2, a6 = a4 * a2;
     const double ir = 1.0 / r;

@@ -2,8 +2,8 @@
 // The Barnes–Hut GPIS (paper Sec. 9.1, DESIGN §3.3): an octree over the samples, built once. Each node keeps
 // moments about its |w|-weighted centroid c (δ = p − c): for the mean Σ w, Σ δ wᵀ, Σ δδw (a Taylor expansion
 // of ∇ρ(y − δ) to second order), for the covariance Σ σ² w wᵀ, Σ σ² δ w wᵀ, Σ Σ', Σ δ Σ' (first order).
-// A node is used whole when ‖x − c‖ > β·r (r: its radius about c); otherwise its children, or its samples
-// exactly, are summed.
+// A node stands in for its samples when ‖x − c‖ > β·r (mean) or > β_cov(d)·r (covariance; see
+// BarnesHutOptions), r its radius about c; otherwise its children, or its samples exactly, are summed.
 #include <cstdint>
 #include <vector>
 
@@ -14,7 +14,10 @@
 namespace gpisvdb {
 
 struct BarnesHutOptions {
-    double beta = 8.0;     ///< opening criterion: a node is far when distance > beta·radius (dimensionless, > 1)
+    double beta = 5.0;              ///< accuracy: a node stands in for its samples' mean beyond beta × its radius,
+                                    ///< and for their covariance beyond 2·beta × its radius (dimensionless, > 1)
+    double covarianceRelax = 5.0;   ///< beyond this distance (units of the smoothing s) the covariance ratio
+                                    ///< relaxes like √(L/d), down to 2
     int leafSize = 16;     ///< most samples in a leaf (≥ 1)
 };
 
@@ -34,7 +37,9 @@ public:
         double radius = 0;            ///< max distance of the node's samples to `centre`
         Vec3d w0;                     ///< Σ w
         Mat3d m1;                     ///< Σ δ wᵀ, δ = p − centre
-        double m2[3][3][3];           ///< Σ δ_l δ_m w_n
+        Mat3d m2[3];                  ///< m2[n](l, m) = Σ δ_l δ_m w_n
+        Vec3d m2trace;                ///< Σ_l m2[n](l, l), per n
+        Vec3d m2mixed;                ///< Σ_l m2[l](l, m), per m
         Mat3d posW;                   ///< Σ σ² w wᵀ
         Mat3d posB[3];                ///< posB[n](l, m) = Σ σ² δ_l w_m w_n
         Mat3d nrmS;                   ///< Σ Σ'
@@ -47,7 +52,9 @@ public:
 private:
     void split(std::uint32_t node, int depth);
     void aggregate(Node& node) const;
-    void addFarNode(const Node& node, const Vec3d& x, ValueGradient& out) const;
+    void addFarMean(const Node& node, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const;
+    void addFarCovariance(const Node& node, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const;
+    double covarianceBeta2(double d2) const;
 
     Samples samples_;  // reordered so that every node's samples are contiguous
     std::vector<Node> nodes_;

@@ -1,0 +1,128 @@
+// Queries per second of DirectGpis and BarnesHutGpis against n, on 1 and 2 threads, with the Barnes–Hut error
+// (docs/benchmarks.md states the norm), tree build time and bytes per sample; and the error against β.
+// Usage: bench_model [--quick] [--out bench/results/model.json] [--data DIR]
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <tbb/global_control.h>
+
+#include "gpisvdb/input/procedural.h"
+#include "gpisvdb/input/read_input.h"
+#include "gpisvdb/model/accuracy.h"
+#include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/model/direct_gpis.h"
+
+using namespace gpisvdb;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double seconds(Clock::time_point a) { return std::chrono::duration<double>(Clock::now() - a).count(); }
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+/// Query points within 3ℓ of random samples: where the fields are used (the band lives there).
+std::vector<Vec3d> nearPoints(const Samples& s, std::size_t count, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> U(-1, 1);
+    std::vector<Vec3d> xs;
+    for (std::size_t i = 0; i < count; ++i)
+        xs.push_back(s.position[rng() % s.size()] + 3 * s.lengthScale * Vec3d(U(rng), U(rng), U(rng)));
+    return xs;
+}
+
+/// Median seconds per query over `repeats` runs of the batch.
+double perQuery(const GpisModel& m, const std::vector<Vec3d>& xs, int repeats) {
+    std::vector<double> t;
+    for (int r = 0; r < repeats; ++r) {
+        const auto start = Clock::now();
+        m.evaluate(xs);
+        t.push_back(seconds(start) / double(xs.size()));
+    }
+    return median(t);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    bool quick = false;
+    std::string out = "bench/results/model.json", data = "../shared/data";
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--quick") quick = true;
+        else if (a == "--out" && i + 1 < argc) out = argv[++i];
+        else if (a == "--data" && i + 1 < argc) data = argv[++i];
+    }
+    nlohmann::json report;
+    report["machine"] = {{"hardware_concurrency", std::thread::hardware_concurrency()}};
+    report["beta_default"] = BarnesHutOptions{}.beta;
+    report["error_norm"] = "per number q: max over points |BH - direct| / scale_q; scales: gamma 1, gradient max|grad gamma|, c_ab max sqrt(c_aa c_bb)";
+
+    struct Input {
+        std::string name;
+        Samples samples;
+    };
+    std::vector<Input> inputs;
+    for (int level : quick ? std::vector<int>{3, 5} : std::vector<int>{3, 5, 6, 7, 8})
+        inputs.push_back({"sphere_l" + std::to_string(level), soupSamples(icosphere(level), {0.5}).samples});
+    inputs.push_back({"cloud_sphere_20k", makeSamples(readInput(data + "/sphere_20k_normal.xyz"), {0.5}).samples});
+    inputs.push_back({"bunny", makeSamples(readInput(data + "/bunny.obj"), {0.5}).samples});
+
+    for (const Input& in : inputs) {
+        const Samples& s = in.samples;
+        const double sm = 0.4 * s.lengthScale;
+        nlohmann::json row = {{"input", in.name}, {"n", s.size()}};
+        const auto start = Clock::now();
+        const BarnesHutGpis bh(s, sm);
+        row["bh_build_s"] = seconds(start);
+        row["bh_bytes_per_sample"] = double(bh.memoryBytes()) / double(s.size());
+        const DirectGpis direct(s, sm);
+        // The direct sum costs n per query: fewer queries as n grows keep each run to about a second.
+        const std::size_t nDirect = std::clamp<std::size_t>(std::size_t(2e7 / double(s.size())), 8, 2000);
+        const auto xsDirect = nearPoints(s, nDirect, 1);
+        const auto xsBH = nearPoints(s, quick ? 2000 : 8000, 2);
+        const auto errPoints = nearPoints(s, std::min<std::size_t>(nDirect, 400), 3);
+        const ModelError err = compareModels(direct.evaluate(errPoints), bh.evaluate(errPoints));
+        row["bh_error_worst"] = err.worst();
+        row["bh_error_per_number"] = err.maxRel;
+        for (int threads : {1, 2}) {
+            tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+            const double td = perQuery(direct, xsDirect, 3), tb = perQuery(bh, xsBH, 3);
+            const std::string k = std::to_string(threads) + "t";
+            row["direct_qps_" + k] = 1.0 / td;
+            row["bh_qps_" + k] = 1.0 / tb;
+            row["speedup_" + k] = td / tb;
+        }
+        std::cout << row.dump() << std::endl;
+        report["scaling"].push_back(row);
+    }
+
+    // === Error and cost against β on the bunny
+    {
+        const Samples& s = inputs.back().samples;
+        const double sm = 0.4 * s.lengthScale;
+        const auto xs = nearPoints(s, 1000, 4);
+        const auto ref = DirectGpis(s, sm).evaluate(xs);
+        for (double beta : {2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0}) {
+            BarnesHutOptions o;
+            o.beta = beta;
+            const BarnesHutGpis bh(s, sm, o);
+            tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+            const double tq = perQuery(bh, xs, 3);
+            const ModelError e = compareModels(ref, bh.evaluate(xs));
+            nlohmann::json row = {{"beta", beta}, {"error_mean_max", *std::max_element(e.maxRel.begin(), e.maxRel.begin() + 4)},
+                                  {"error_cov_max", *std::max_element(e.maxRel.begin() + 4, e.maxRel.end())},
+                                  {"error_worst", e.worst()}, {"qps_1t", 1.0 / tq}};
+            std::cout << row.dump() << std::endl;
+            report["beta_sweep_bunny"].push_back(row);
+        }
+    }
+    std::ofstream(out) << report.dump(2) << "\n";
+    std::cout << "wrote " << out << "\n";
+}

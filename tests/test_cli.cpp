@@ -1,0 +1,154 @@
+// End-to-end tests of the gpisvdb program: exit codes, one-line errors, no partial outputs.
+#include <sys/wait.h>
+
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "helpers.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Run {
+    int code = -1;
+    std::string out, err;
+};
+
+Run run(const std::string& args) {
+    const fs::path dir = fs::temp_directory_path();
+    const std::string out = (dir / "gpisvdb_cli_stdout").string(), err = (dir / "gpisvdb_cli_stderr").string();
+    const int status = std::system((std::string(GPISVDB_EXE) + " " + args + " >" + out + " 2>" + err + " </dev/null").c_str());
+    Run r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::ifstream o(out), e(err);
+    std::stringstream so, se;
+    so << o.rdbuf();
+    se << e.rdbuf();
+    r.out = so.str();
+    r.err = se.str();
+    return r;
+}
+
+std::string temp(const std::string& name, const std::string& content = "") {
+    const fs::path p = fs::temp_directory_path() / ("gpisvdb_cli_" + name);
+    if (!content.empty()) std::ofstream(p) << content;
+    return p.string();
+}
+
+std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
+
+bool leftovers(const std::string& output) {
+    const fs::path p(output);
+    if (fs::exists(p)) return true;
+    for (const auto& e : fs::directory_iterator(p.parent_path()))
+        if (e.path().filename().string().rfind(p.filename().string() + ".tmp-", 0) == 0) return true;
+    return false;
+}
+
+}  // namespace
+
+TEST_CASE("cli: info describes the bunny", "[cli]") {
+    const Run r = run("info " + gpisvdb::test::dataPath("bunny.obj"));
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("samples:      3674"));
+    CHECK_THAT(r.out, Catch::Contains("length scale"));
+}
+
+TEST_CASE("cli: evaluate writes one row per query point with the documented header", "[cli]") {
+    const std::string pts = temp("pts.xyz", "0 0 0\n0.5,0.5,0.5\n# comment\n3 3 3\n");
+    const std::string out = temp("values.csv");
+    fs::remove(out);
+    const Run r = run("evaluate " + gpisvdb::test::dataPath("bunny.obj") + " --at " + pts + " -o " + out + " --quiet");
+    REQUIRE(r.code == 0);
+    std::ifstream in(out);
+    std::string header;
+    std::getline(in, header);
+    CHECK(header == "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33");
+    std::string row;
+    int rows = 0;
+    while (std::getline(in, row)) {
+        ++rows;
+        CHECK(std::count(row.begin(), row.end(), ',') == 16);
+    }
+    CHECK(rows == 3);
+}
+
+TEST_CASE("cli: exact and Barnes-Hut evaluate agree to the stated accuracy", "[cli]") {
+    const std::string pts = temp("pts2.xyz", "0 0 0\n-0.5 1 2.5\n");
+    const std::string a = temp("bh.csv"), b = temp("exact.csv");
+    const std::string in = gpisvdb::test::dataPath("bunny.obj");
+    REQUIRE(run("evaluate " + in + " --at " + pts + " -o " + a).code == 0);
+    REQUIRE(run("evaluate " + in + " --at " + pts + " -o " + b + " --exact --threads 1").code == 0);
+    std::ifstream fa(a), fb(b);
+    std::string la, lb;
+    std::getline(fa, la), std::getline(fb, lb);
+    while (std::getline(fa, la) && std::getline(fb, lb)) {
+        std::stringstream sa(la), sb(lb);
+        std::string ta, tb;
+        for (int col = 0; std::getline(sa, ta, ',') && std::getline(sb, tb, ','); ++col)
+            if (col == 3) CHECK(std::stod(ta) == Approx(std::stod(tb)).margin(1e-3));  // γ
+    }
+}
+
+TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exit and no output", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
+    const std::string pts = temp("pts3.xyz", "0 0 0\n");
+    const std::string out = temp("bad.csv");
+    struct Case {
+        std::string args, expect;
+    };
+    const std::vector<Case> cases = {
+        {"evaluate /nonexistent.obj --at " + pts + " -o " + out, "no such file"},
+        {"evaluate " + temp("m.xyzw", "1") + " --at " + pts + " -o " + out, "unknown extension"},
+        {"evaluate " + temp("e.obj", " ") + " --at " + pts + " -o " + out, "empty"},
+        {"evaluate " + temp("c.off", "0 0 0 0 0 1\n") + " --at " + pts + " -o " + out, "not an OFF"},
+        {"evaluate " + temp("n.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n") + " --at " + pts + " -o " + out, "non-finite"},
+        {"evaluate " + temp("r.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n") + " --at " + pts + " -o " + out, "out of range"},
+        {"evaluate " + temp("z.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n") + " --at " + pts + " -o " + out, "non-zero area"},
+        {"evaluate " + temp("nn.xyz", "0 0 0\n1 0 0\n") + " --at " + pts + " -o " + out, "no normals"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --sigma 0", "--sigma"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --sigma -1", "--sigma"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --smoothing 0", "--smoothing"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --beta 0.5", "--beta"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --threads -2", "--threads"},
+        {"evaluate " + bunny + " --at " + temp("q.xyz", "0 0 x\n") + " -o " + out, "not a finite number"},
+        {"evaluate " + bunny + " --at " + pts + " -o /nonexistent-dir/out.csv", "does not exist"},
+        {"info " + temp("nan.xyz", "0 0 0 0 0 1\n1 nan 0 0 0 1\n"), "non-finite"},
+    };
+    for (const Case& c : cases) {
+        fs::remove(out);
+        const Run r = run(c.args);
+        INFO(c.args << "\nstderr: " << r.err);
+        CHECK(r.code == 1);
+        CHECK(lines(r.err) == 1);
+        CHECK_THAT(r.err, Catch::Contains(c.expect));
+        CHECK_FALSE(leftovers(out));
+    }
+}
+
+TEST_CASE("cli: usage errors exit 2; --help and --version exit 0", "[cli]") {
+    CHECK(run("").code == 2);
+    CHECK(run("evaluate").code == 2);
+    CHECK(run("evaluate x.obj --at p.xyz -o o.csv --no-such-flag").code == 2);
+    CHECK(run("--help").code == 0);
+    CHECK(run("evaluate --help").code == 0);
+    CHECK(run("--version").out.find("gpisvdb") != std::string::npos);
+}
+
+TEST_CASE("cli: demo writes a VDB with the mean and stddev grids", "[cli]") {
+    const std::string dir = temp("demo");
+    fs::remove_all(dir);
+    const Run r = run("demo -o " + dir + " --resolution 12 --quiet");
+    REQUIRE(r.code == 0);
+    CHECK(fs::exists(dir + "/gpis.vdb"));
+    const int status = std::system(("vdb_print " + dir + "/gpis.vdb > " + dir + "/print.txt 2>&1").c_str());
+    CHECK(WEXITSTATUS(status) == 0);
+    std::ifstream in(dir + "/print.txt");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    CHECK_THAT(ss.str(), Catch::Contains("mean"));
+    CHECK_THAT(ss.str(), Catch::Contains("stddev"));
+}
