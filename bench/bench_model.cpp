@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
         row["bh_bytes_per_sample"] = double(bh.memoryBytes()) / double(s.size());
         const DirectGpis direct(s, sm);
         // The direct sum costs n per query: fewer queries as n grows keep each run to about a second.
-        const std::size_t nDirect = std::clamp<std::size_t>(std::size_t(2e7 / double(s.size())), 8, 2000);
+        const std::size_t nDirect = std::clamp<std::size_t>(std::size_t(2e7 / double(s.size())), 32, 2000);
         const auto xsDirect = nearPoints(s, nDirect, 1);
         const auto xsBH = nearPoints(s, quick ? 2000 : 8000, 2);
         const auto errPoints = nearPoints(s, std::min<std::size_t>(nDirect, 400), 3);

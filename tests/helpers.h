@@ -1,11 +1,21 @@
 #pragma once
 // Shared test fixtures: data paths, random numbers, soups without shared vertices.
+#include <unistd.h>
+
+#include <filesystem>
 #include <random>
 #include <string>
 
 #include "gpisvdb/input/triangle_soup.h"
 
 namespace gpisvdb::test {
+
+/// A scratch directory of this test process (CTest runs tests in parallel processes).
+inline std::filesystem::path scratchDir() {
+    const auto dir = std::filesystem::temp_directory_path() / ("gpisvdb_test_" + std::to_string(getpid()));
+    std::filesystem::create_directories(dir);
+    return dir;
+}
 
 inline std::string dataPath(const std::string& name) { return std::string(GPISVDB_DATA_DIR) + "/" + name; }
 

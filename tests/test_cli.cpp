@@ -18,7 +18,7 @@ struct Run {
 };
 
 Run run(const std::string& args) {
-    const fs::path dir = fs::temp_directory_path();
+    const fs::path dir = gpisvdb::test::scratchDir();
     const std::string out = (dir / "gpisvdb_cli_stdout").string(), err = (dir / "gpisvdb_cli_stderr").string();
     const int status = std::system((std::string(GPISVDB_EXE) + " " + args + " >" + out + " 2>" + err + " </dev/null").c_str());
     Run r;
@@ -33,7 +33,7 @@ Run run(const std::string& args) {
 }
 
 std::string temp(const std::string& name, const std::string& content = "") {
-    const fs::path p = fs::temp_directory_path() / ("gpisvdb_cli_" + name);
+    const fs::path p = gpisvdb::test::scratchDir() / ("gpisvdb_cli_" + name);
     if (!content.empty()) std::ofstream(p) << content;
     return p.string();
 }

@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string tempFile(const std::string& name, const std::string& content) {
-    const fs::path p = fs::temp_directory_path() / ("gpisvdb_test_" + name);
+    const fs::path p = gpisvdb::test::scratchDir() / ("gpisvdb_test_" + name);
     std::ofstream(p, std::ios::binary) << content;
     return p.string();
 }
@@ -98,7 +98,7 @@ TEST_CASE("input: STL and VTP written by VTK read back", "[input]") {
     }
     pd->SetPoints(pts);
     pd->SetPolys(polys);
-    const std::string stl = (fs::temp_directory_path() / "gpisvdb_test_ico.stl").string();
+    const std::string stl = (gpisvdb::test::scratchDir() / "gpisvdb_test_ico.stl").string();
     auto sw = vtkSmartPointer<vtkSTLWriter>::New();
     sw->SetFileName(stl.c_str());
     sw->SetInputData(pd);
@@ -117,7 +117,7 @@ TEST_CASE("input: STL and VTP written by VTK read back", "[input]") {
     for (const auto& p : ico.vertices) normals->InsertNextTuple(p.data()), sigma->InsertNextValue(0.05);
     cloud->GetPointData()->SetNormals(normals);
     cloud->GetPointData()->AddArray(sigma);
-    const std::string vtp = (fs::temp_directory_path() / "gpisvdb_test_cloud.vtp").string();
+    const std::string vtp = (gpisvdb::test::scratchDir() / "gpisvdb_test_cloud.vtp").string();
     auto xw = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
     xw->SetFileName(vtp.c_str());
     xw->SetInputData(cloud);

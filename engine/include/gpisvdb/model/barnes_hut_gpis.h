@@ -14,7 +14,7 @@
 namespace gpisvdb {
 
 struct BarnesHutOptions {
-    double beta = 5.0;              ///< accuracy: a node stands in for its samples' mean beyond beta × its radius,
+    double beta = 6.0;              ///< accuracy: a node stands in for its samples' mean beyond beta × its radius,
                                     ///< and for their covariance beyond 2·beta × its radius (dimensionless, > 1)
     double covarianceRelax = 5.0;   ///< beyond this distance (units of the smoothing s) the covariance ratio
                                     ///< relaxes like √(L/d), down to 2
