@@ -22,16 +22,13 @@ BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOp
     if (samples.size() == 0) throw InputError("no samples to build a GPIS from");
     if (samples.size() >= std::size_t(UINT32_MAX)) throw InputError("too many samples (limit 2^32 - 1)");
     samples_ = samples;
-    Node root;
-    root.begin = 0;
-    root.end = std::uint32_t(samples_.size());
-    aggregate(root);
-    nodes_.push_back(root);
+    addNode(0, std::uint32_t(samples_.size()));
     split(0, 0);
 }
 
 std::size_t BarnesHutGpis::memoryBytes() const {
-    return nodes_.capacity() * sizeof(Node) +
+    return nodes_.capacity() * sizeof(Node) + meanMoments_.capacity() * sizeof(MeanMoments) +
+           covMoments_.capacity() * sizeof(CovarianceMoments) +
            samples_.size() * (2 * sizeof(Vec3d) + sizeof(double) + sizeof(Sym3));
 }
 
@@ -69,24 +66,21 @@ void BarnesHutGpis::split(std::uint32_t self, int depth) {
     permute(samples_.normalCovariance);
 
     const std::uint32_t first = std::uint32_t(nodes_.size());
-    for (int k = 0; k < 8; ++k) {
-        if (start[k + 1] == start[k]) continue;
-        Node child;
-        child.begin = begin + start[k];
-        child.end = begin + start[k + 1];
-        aggregate(child);
-        nodes_.push_back(child);
-    }
+    for (int k = 0; k < 8; ++k)
+        if (start[k + 1] > start[k]) addNode(begin + start[k], begin + start[k + 1]);
     nodes_[self].firstChild = first;
     nodes_[self].childCount = std::uint8_t(nodes_.size() - first);
     for (std::uint32_t c = first; c < first + nodes_[self].childCount; ++c) split(c, depth + 1);
 }
 
-// === Far-field aggregates of one node (DESIGN §3.3)
-void BarnesHutGpis::aggregate(Node& node) const {
+// === Far-field moments of one node (DESIGN §3.3)
+std::uint32_t BarnesHutGpis::addNode(std::uint32_t begin, std::uint32_t end) {
+    Node node;
+    node.begin = begin;
+    node.end = end;
     double wSum = 0;
-    Vec3d c = Vec3d::Zero(), lo = samples_.position[node.begin], hi = lo;
-    for (std::uint32_t i = node.begin; i < node.end; ++i) {
+    Vec3d c = Vec3d::Zero(), lo = samples_.position[begin], hi = lo;
+    for (std::uint32_t i = begin; i < end; ++i) {
         const Vec3d& p = samples_.position[i];
         const double a = samples_.normal[i].norm();
         wSum += a;
@@ -95,32 +89,37 @@ void BarnesHutGpis::aggregate(Node& node) const {
     }
     node.centre = wSum > 0 ? Vec3d(c / wSum) : Vec3d(0.5 * (lo + hi));
 
-    node.w0.setZero();
-    node.m1.setZero();
-    for (auto& m : node.m2) m.setZero();
-    node.posW.setZero();
-    node.nrmS.setZero();
-    for (int k = 0; k < 3; ++k) node.posB[k].setZero(), node.nrmC[k].setZero();
+    MeanMoments mm;
+    CovarianceMoments cm;
+    mm.w0.setZero();
+    mm.m1.setZero();
+    cm.posW.setZero();
+    cm.nrmS.setZero();
+    for (int k = 0; k < 3; ++k) mm.m2[k].setZero(), cm.posB[k].setZero(), cm.nrmC[k].setZero();
     double r2 = 0;
-    for (std::uint32_t i = node.begin; i < node.end; ++i) {
+    for (std::uint32_t i = begin; i < end; ++i) {
         const Vec3d& w = samples_.normal[i];
         const Vec3d d = samples_.position[i] - node.centre;
         const double v = samples_.positionVariance[i];
         const Mat3d S = samples_.normalCovariance[i].matrix();
         r2 = std::max(r2, d.squaredNorm());
-        node.w0 += w;
-        node.m1 += d * w.transpose();
+        mm.w0 += w;
+        mm.m1 += d * w.transpose();
         const Mat3d dd = d * d.transpose();
-        for (int n = 0; n < 3; ++n) node.m2[n] += w[n] * dd;
+        for (int n = 0; n < 3; ++n) mm.m2[n] += w[n] * dd;
         const Mat3d dw = v * (d * w.transpose());
-        node.posW += v * (w * w.transpose());
-        for (int n = 0; n < 3; ++n) node.posB[n] += dw * w[n];
-        node.nrmS += S;
-        for (int l = 0; l < 3; ++l) node.nrmC[l] += d[l] * S;
+        cm.posW += v * (w * w.transpose());
+        for (int n = 0; n < 3; ++n) cm.posB[n] += dw * w[n];
+        cm.nrmS += S;
+        for (int l = 0; l < 3; ++l) cm.nrmC[l] += d[l] * S;
     }
     node.radius = std::sqrt(r2);
-    for (int n = 0; n < 3; ++n) node.m2trace[n] = node.m2[n].trace();
-    node.m2mixed = node.m2[0].row(0).transpose() + node.m2[1].row(1).transpose() + node.m2[2].row(2).transpose();
+    for (int n = 0; n < 3; ++n) mm.m2trace[n] = mm.m2[n].trace();
+    mm.m2mixed = mm.m2[0].row(0).transpose() + mm.m2[1].row(1).transpose() + mm.m2[2].row(2).transpose();
+    nodes_.push_back(node);
+    meanMoments_.push_back(mm);
+    covMoments_.push_back(cm);
+    return std::uint32_t(nodes_.size() - 1);
 }
 
 namespace {
@@ -146,28 +145,28 @@ double contract2(const RadialDerivatives& F, const Vec3d& y, const Mat3d& X) { r
 
 }  // namespace
 
-void BarnesHutGpis::addFarMean(const Node& node, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const {
+void BarnesHutGpis::addFarMean(const MeanMoments& mm, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const {
     const Mat3d D2 = RegularizedKernel::hessian(F, y);
 
     // === Mean: ∇ρ(y − δ)·w and D²ρ(y − δ) w to second order in δ
     // With M2_lmn = Σ δ_l δ_m w_n: tr_n = Σ_l M2_lln, um_m = Σ_l M2_lml, Q_l = Σ_mn M2_lmn y_m y_n,
     // P_n = Σ_lm M2_lmn y_l y_m (derivation in docs/model.md).
-    const Mat3d& M1 = node.m1;
-    const Vec3d& tr = node.m2trace;
-    const Vec3d& um = node.m2mixed;
+    const Mat3d& M1 = mm.m1;
+    const Vec3d& tr = mm.m2trace;
+    const Vec3d& um = mm.m2mixed;
     Vec3d P, Q = Vec3d::Zero();
     for (int n = 0; n < 3; ++n) {
-        const Vec3d v = node.m2[n] * y;
+        const Vec3d v = mm.m2[n] * y;
         P[n] = y.dot(v);
         Q += y[n] * v;
     }
     const double Y3 = y.dot(P), ty = tr.dot(y), uy = um.dot(y);
-    out.mean[0] += F.F1 * y.dot(node.w0) - contract2(F, y, M1) + 0.5 * (F.F2 * (ty + 2 * uy) + F.F3 * Y3);
+    out.mean[0] += F.F1 * y.dot(mm.w0) - contract2(F, y, M1) + 0.5 * (F.F2 * (ty + 2 * uy) + F.F3 * Y3);
     const Vec3d d4m2 = F.F2 * (2 * um + tr) + F.F3 * (2 * Q + P + (ty + 2 * uy) * y) + (F.F4 * Y3) * y;
-    out.mean.tail<3>() += D2 * node.w0 - contract3(F, y, M1) + 0.5 * d4m2;
+    out.mean.tail<3>() += D2 * mm.w0 - contract3(F, y, M1) + 0.5 * d4m2;
 }
 
-void BarnesHutGpis::addFarCovariance(const Node& node, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const {
+void BarnesHutGpis::addFarCovariance(const CovarianceMoments& cm, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const {
     const Mat3d D2 = RegularizedKernel::hessian(F, y);
 
     // === Covariance to first order in δ. Q_m = J(y, e_m) = [D²ρ e_m; D³ρ·e_m] is also ∂_m K(y).
@@ -180,10 +179,10 @@ void BarnesHutGpis::addFarCovariance(const Node& node, const Vec3d& y, const Rad
     Mat4d S = Mat4d::Zero();
     for (int m = 0; m < 3; ++m) {
         Mat43d WQ = Mat43d::Zero();
-        for (int n = 0; n < 3; ++n) WQ += node.posW(m, n) * Qm[n];
+        for (int n = 0; n < 3; ++n) WQ += cm.posW(m, n) * Qm[n];
         Mat43d R;
-        R.row(0) = contract3(F, y, node.posB[m]).transpose();
-        R.bottomRows<3>() = contract4(F, y, node.posB[m]);
+        R.row(0) = contract3(F, y, cm.posB[m]).transpose();
+        R.bottomRows<3>() = contract4(F, y, cm.posB[m]);
         S.noalias() += Qm[m] * (0.5 * WQ - R).transpose();
     }
     out.cov += S + S.transpose();
@@ -191,8 +190,8 @@ void BarnesHutGpis::addFarCovariance(const Node& node, const Vec3d& y, const Rad
     Mat43d K;
     K.row(0) = (F.F1 * y).transpose();
     K.bottomRows<3>() = D2;
-    Mat43d V = 0.5 * K * node.nrmS;
-    for (int l = 0; l < 3; ++l) V.noalias() -= Qm[l] * node.nrmC[l];
+    Mat43d V = 0.5 * K * cm.nrmS;
+    for (int l = 0; l < 3; ++l) V.noalias() -= Qm[l] * cm.nrmC[l];
     const Mat4d U = V * K.transpose();
     out.cov += U + U.transpose();
 }
@@ -213,8 +212,8 @@ ValueGradient BarnesHutGpis::evaluate(const Vec3d& x) const {
         const bool farCov = !(done & 2) && d2 > covarianceBeta2(d2) * r2;
         if (farMean || farCov) {
             const RadialDerivatives F = kernel_.at(d2);
-            if (farMean) addFarMean(node, y, F, out), done |= 1;
-            if (farCov) addFarCovariance(node, y, F, out), done |= 2;
+            if (farMean) addFarMean(meanMoments_[index], y, F, out), done |= 1;
+            if (farCov) addFarCovariance(covMoments_[index], y, F, out), done |= 2;
         }
         if (done == 3) continue;
         if (node.childCount == 0) {

@@ -32,32 +32,42 @@ public:
     /// Bytes held by the tree and its reordered copy of the samples.
     std::size_t memoryBytes() const;
 
+    /// Tree topology and the opening test: what every visit reads, kept small for the cache.
     struct Node {
-        Vec3d centre;                 ///< expansion centre of the mean (|w|-weighted centroid)
-        double radius = 0;            ///< max distance of the node's samples to `centre`
-        Vec3d w0;                     ///< Σ w
-        Mat3d m1;                     ///< Σ δ wᵀ, δ = p − centre
-        Mat3d m2[3];                  ///< m2[n](l, m) = Σ δ_l δ_m w_n
-        Vec3d m2trace;                ///< Σ_l m2[n](l, l), per n
-        Vec3d m2mixed;                ///< Σ_l m2[l](l, m), per m
-        Mat3d posW;                   ///< Σ σ² w wᵀ
-        Mat3d posB[3];                ///< posB[n](l, m) = Σ σ² δ_l w_m w_n
-        Mat3d nrmS;                   ///< Σ Σ'
-        Mat3d nrmC[3];                ///< nrmC[l] = Σ δ_l Σ'
+        Vec3d centre;                         ///< expansion centre (|w|-weighted centroid)
+        double radius = 0;                    ///< max distance of the node's samples to `centre`
         std::uint32_t begin = 0, end = 0;     ///< sample range (tree order)
         std::uint32_t firstChild = 0;         ///< children are contiguous
         std::uint8_t childCount = 0;
     };
+    /// Moments for the mean's far field, δ = p − centre; read only when the node is far.
+    struct MeanMoments {
+        Vec3d w0;                     ///< Σ w
+        Mat3d m1;                     ///< Σ δ wᵀ
+        Mat3d m2[3];                  ///< m2[n](l, m) = Σ δ_l δ_m w_n
+        Vec3d m2trace;                ///< Σ_l m2[n](l, l), per n
+        Vec3d m2mixed;                ///< Σ_l m2[l](l, m), per m
+    };
+    /// Moments for the covariance's far field; read only when the node is far.
+    struct CovarianceMoments {
+        Mat3d posW;                   ///< Σ σ² w wᵀ
+        Mat3d posB[3];                ///< posB[n](l, m) = Σ σ² δ_l w_m w_n
+        Mat3d nrmS;                   ///< Σ Σ'
+        Mat3d nrmC[3];                ///< nrmC[l] = Σ δ_l Σ'
+    };
 
 private:
     void split(std::uint32_t node, int depth);
-    void aggregate(Node& node) const;
-    void addFarMean(const Node& node, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const;
-    void addFarCovariance(const Node& node, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const;
+    /// Appends a node over samples [begin, end) with its moments; returns its index.
+    std::uint32_t addNode(std::uint32_t begin, std::uint32_t end);
+    void addFarMean(const MeanMoments& mm, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const;
+    void addFarCovariance(const CovarianceMoments& cm, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const;
     double covarianceBeta2(double d2) const;
 
     Samples samples_;  // reordered so that every node's samples are contiguous
     std::vector<Node> nodes_;
+    std::vector<MeanMoments> meanMoments_;       // per node
+    std::vector<CovarianceMoments> covMoments_;  // per node
     RegularizedKernel kernel_;
     BarnesHutOptions options_;
 };
