@@ -1,0 +1,22 @@
+#pragma once
+// A deterministic quasi-Monte-Carlo rule for expectations over N(0, I₃) (DESIGN §3.4): the first S points of
+// the 3D Sobol sequence (Joe–Kuo direction numbers), shifted to the centres of their cells and mapped through
+// the inverse normal CDF. Built once, shared by every evaluation.
+#include <vector>
+
+#include "gpisvdb/core/types.h"
+
+namespace gpisvdb {
+
+class QmcRule {
+public:
+    /// S ≥ 1 points; powers of two keep the Sobol net balanced.
+    explicit QmcRule(int samples = 512);
+    const std::vector<Vec3d>& points() const { return points_; }
+    int size() const { return int(points_.size()); }
+
+private:
+    std::vector<Vec3d> points_;
+};
+
+}  // namespace gpisvdb
