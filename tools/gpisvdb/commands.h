@@ -9,5 +9,6 @@ using Action = std::function<void()>;
 void addInfo(CLI::App& app, Action& action);
 void addEvaluate(CLI::App& app, Action& action);
 void addDemo(CLI::App& app, Action& action);
+void addBand(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

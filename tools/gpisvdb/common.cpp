@@ -20,6 +20,11 @@ std::atomic<bool> gInterrupted{false};
 extern "C" void onSigint(int) { gInterrupted = true; }
 }  // namespace
 
+std::string& commandLine() {
+    static std::string line;
+    return line;
+}
+
 void installInterruptHandler() {
     std::signal(SIGINT, onSigint);
     std::signal(SIGTERM, onSigint);

@@ -47,6 +47,9 @@ private:
 
 /// Progress on stderr when it is a terminal (and not --quiet); interrupted after Ctrl-C.
 Progress makeProgress(bool quiet);
+/// The command line as typed (recorded in output metadata).
+std::string& commandLine();
+
 /// Installs the Ctrl-C handler (sets a flag the Progress polls).
 void installInterruptHandler();
 bool interruptRequested();

@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
     cli::addInfo(app, action);
     cli::addEvaluate(app, action);
     cli::addDemo(app, action);
+    cli::addBand(app, action);
+    for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
     try {
         app.parse(argc, argv);
     } catch (const CLI::Success& e) {

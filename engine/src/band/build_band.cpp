@@ -1,0 +1,243 @@
+#include "gpisvdb/band/build_band.h"
+
+#include <algorithm>
+#include <cmath>
+#include <tbb/parallel_for.h>
+
+#include "gpisvdb/core/errors.h"
+#include "gpisvdb/kacrice/kac_rice.h"
+#include "gpisvdb/stencil/resolution.h"
+#include "gpisvdb/stencil/selling.h"
+
+namespace gpisvdb {
+
+namespace {
+
+using openvdb::Coord;
+
+struct VoxelValue {
+    Coord c;
+    SurfaceDensity d;
+    double gamma = 0, stddev = 0;
+};
+
+void checkOptions(const BandOptions& o) {
+    if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize)) throw ParameterError("--voxel-size must be finite and > 0");
+    if (!(o.etaRelative > 0) || !std::isfinite(o.etaRelative)) throw ParameterError("--eta must be finite and > 0");
+    if (!(o.maxAnisotropy >= 1)) throw ParameterError("--max-anisotropy must be >= 1");
+    if (!std::isfinite(o.iso)) throw ParameterError("--iso must be finite");
+}
+
+Coord voxelOf(const Vec3d& p, double h) {
+    const Vec3d k = p / h;
+    if (k.cwiseAbs().maxCoeff() > 1e9)
+        throw ParameterError("the voxel size is too small for the input's extent (index coordinates beyond 1e9): "
+                             "use a larger --voxel-size");
+    return Coord(int(std::lround(k.x())), int(std::lround(k.y())), int(std::lround(k.z())));
+}
+
+/// Evaluates the GPIS and Kac–Rice at voxel centres h·c, in parallel.
+std::vector<VoxelValue> evaluate(const GpisModel& model, const std::vector<Coord>& coords, double h, double iso,
+                                 const QmcRule& rule, const Progress& progress) {
+    std::vector<Vec3d> xs(coords.size());
+    for (std::size_t i = 0; i < coords.size(); ++i) xs[i] = h * Vec3d(coords[i].x(), coords[i].y(), coords[i].z());
+    const std::vector<ValueGradient> z = model.evaluate(xs, progress);
+    std::vector<VoxelValue> out(coords.size());
+    tbb::parallel_for(std::size_t(0), coords.size(), [&](std::size_t i) {
+        out[i].c = coords[i];
+        out[i].d = kacRice(z[i], iso, rule);
+        out[i].gamma = z[i].mean[0];
+        out[i].stddev = std::sqrt(std::max(0.0, z[i].cov(0, 0)));
+    });
+    return out;
+}
+
+/// η in absolute units: etaRelative × the median μ over the voxels holding samples.
+double absoluteEta(const std::vector<VoxelValue>& values, const std::vector<Coord>& sampleVoxels, double etaRel,
+                   BandStats& stats) {
+    std::vector<double> mus;
+    for (const auto& v : values)
+        if (std::binary_search(sampleVoxels.begin(), sampleVoxels.end(), v.c)) mus.push_back(v.d.mu);
+    std::nth_element(mus.begin(), mus.begin() + long(mus.size() / 2), mus.end());
+    stats.medianSampleMu = mus.empty() ? 0.0 : mus[mus.size() / 2];
+    if (!(stats.medianSampleMu > 0))
+        throw InputError("the surface density vanishes at the samples' voxels (sigma far too small for the voxel size?)");
+    stats.etaAbsolute = etaRel * stats.medianSampleMu;
+    return stats.etaAbsolute;
+}
+
+std::vector<Coord> sampleVoxels(const Samples& samples, double h) {
+    std::vector<Coord> v;
+    v.reserve(samples.size());
+    for (const auto& p : samples.position) v.push_back(voxelOf(p, h));
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    return v;
+}
+
+void checkBudget(std::size_t evaluated, const BandOptions& o, double h) {
+    if (o.maxVoxels && evaluated > o.maxVoxels)
+        throw ParameterError("the band needs more than " + std::to_string(o.maxVoxels) +
+                             " voxels at voxel size " + std::to_string(h) +
+                             ", beyond --max-memory: use a larger --voxel-size (e.g. " + std::to_string(2 * h) +
+                             ") or raise --max-memory");
+}
+
+/// Index tree in leaf order, channels, and Selling stencils from the accepted voxels.
+BandResult finish(std::vector<VoxelValue>&& accepted, const BandOptions& o, BandStats stats) {
+    BandResult r;
+    r.stats = stats;
+    Band& b = r.band;
+    b.voxelSize = o.voxelSize;
+    b.index = openvdb::Int32Grid::create(-1);
+    b.index->setTransform(openvdb::math::Transform::createLinearTransform(o.voxelSize));
+    b.index->setName("index");
+    {
+        auto acc = b.index->getAccessor();
+        for (std::size_t i = 0; i < accepted.size(); ++i) acc.setValue(accepted[i].c, int(i));
+    }
+    // === Linear indices in leaf order (OpenVDB's value-on iteration order)
+    const std::size_t n = accepted.size();
+    std::vector<std::size_t> source;
+    source.reserve(n);
+    for (auto it = b.index->tree().beginValueOn(); it; ++it) {
+        source.push_back(std::size_t(*it));
+        it.setValue(int(source.size() - 1));
+    }
+    b.coord.resize(n);
+    b.mu.resize(n);
+    b.T.resize(n);
+    b.mean.resize(n);
+    b.stddev.resize(n);
+    b.normal.resize(n);
+    b.stencil.resize(n);
+    std::vector<int> regularised(n, 0);
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+        const VoxelValue& v = accepted[source[i]];
+        b.coord[i] = v.c;
+        b.mu[i] = float(v.d.mu);
+        const Mat3d& T = v.d.T;
+        b.T[i] = {float(T(0, 0)), float(T(1, 1)), float(T(2, 2)), float(T(0, 1)), float(T(0, 2)), float(T(1, 2))};
+        b.mean[i] = float(v.gamma);
+        b.stddev[i] = float(v.stddev);
+        const double g = v.d.meanGradient.norm();
+        const Vec3d nrm = g > 0 ? Vec3d(-v.d.meanGradient / g) : Vec3d::Zero();
+        b.normal[i] = openvdb::Vec3f(float(nrm.x()), float(nrm.y()), float(nrm.z()));
+        // === Selling stencil of T (regularised for anisotropy; DESIGN §3.5)
+        bool changed = false;
+        const Selling3 s = selling(regularise(T, o.maxAnisotropy, changed));
+        regularised[i] = changed;
+        VoxelStencil& st = b.stencil[i];
+        st.count = std::uint8_t(s.count);
+        st.width = std::uint8_t(std::min(255, s.width()));
+        for (int k = 0; k < s.count; ++k) {
+            st.weight[std::size_t(k)] = float(s.weight[std::size_t(k)]);
+            for (int d = 0; d < 3; ++d) {
+                const int e = s.offset[std::size_t(k)][d];
+                if (e < -127 || e > 127) throw Error("Selling offset beyond ±127 despite regularisation");
+                st.offset[std::size_t(k)][std::size_t(d)] = std::int8_t(e);
+            }
+        }
+    });
+    for (std::size_t i = 0; i < n; ++i) {
+        r.stats.regularised += std::size_t(regularised[i]);
+        r.stats.maxStencilL1 = std::max(r.stats.maxStencilL1, int(b.stencil[i].width));
+    }
+    return r;
+}
+
+constexpr int kNeighbours = 26;
+const std::array<Coord, kNeighbours>& neighbourOffsets() {
+    static const std::array<Coord, kNeighbours> n = [] {
+        std::array<Coord, kNeighbours> a;
+        int k = 0;
+        for (int i = -1; i <= 1; ++i)
+            for (int j = -1; j <= 1; ++j)
+                for (int l = -1; l <= 1; ++l)
+                    if (i || j || l) a[std::size_t(k++)] = Coord(i, j, l);
+        return a;
+    }();
+    return n;
+}
+
+}  // namespace
+
+BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
+    checkOptions(o);
+    const QmcRule rule(o.qmcSamples);
+    const double h = o.voxelSize;
+    BandStats stats;
+
+    // === Seeds: the samples' voxels and their 26 neighbours
+    const std::vector<Coord> sampleVox = sampleVoxels(samples, h);
+    openvdb::MaskGrid visited(false);
+    auto seen = visited.getAccessor();
+    std::vector<Coord> frontier;
+    for (const Coord& c : sampleVox) {
+        for (const Coord& d : neighbourOffsets())
+            if (!seen.isValueOn(c + d)) seen.setValueOn(c + d), frontier.push_back(c + d);
+        if (!seen.isValueOn(c)) seen.setValueOn(c), frontier.push_back(c);
+    }
+    std::vector<VoxelValue> accepted;
+    double eta = 0;
+    // === Breadth-first search: evaluate the frontier, keep μ > η, visit the kept voxels' new neighbours
+    while (!frontier.empty()) {
+        progress.checkInterrupt();
+        stats.evaluated += frontier.size();
+        checkBudget(stats.evaluated, o, h);
+        std::vector<VoxelValue> values = evaluate(model, frontier, h, o.iso, rule, {});
+        if (stats.levels == 0) eta = absoluteEta(values, sampleVox, o.etaRelative, stats);
+        ++stats.levels;
+        frontier.clear();
+        for (VoxelValue& v : values) {
+            if (!(v.d.mu > eta)) continue;
+            for (const Coord& d : neighbourOffsets())
+                if (!seen.isValueOn(v.c + d)) seen.setValueOn(v.c + d), frontier.push_back(v.c + d);
+            accepted.push_back(std::move(v));
+        }
+        progress.update("band", 1.0 - 1.0 / (1.0 + 0.1 * stats.levels));
+    }
+    progress.update("band", 1.0);
+    return finish(std::move(accepted), o, stats);
+}
+
+BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
+    checkOptions(o);
+    const QmcRule rule(o.qmcSamples);
+    const double h = o.voxelSize;
+    BandStats stats;
+    const std::vector<Coord> sampleVox = sampleVoxels(samples, h);
+    openvdb::CoordBBox box;
+    for (const Coord& c : sampleVox) box.expand(c);
+    box.expand(1);
+    std::vector<VoxelValue> all;
+    openvdb::CoordBBox done;  // empty: nothing scanned yet
+    double eta = 0;
+    // === Scan the box; grow it while band voxels touch its boundary (the scan must not cut the band)
+    for (;;) {
+        progress.checkInterrupt();
+        std::vector<Coord> coords;
+        for (auto it = box.begin(); it; ++it)
+            if (done.empty() || !done.isInside(*it)) coords.push_back(*it);
+        stats.evaluated += coords.size();
+        checkBudget(stats.evaluated, o, h);
+        std::vector<VoxelValue> values = evaluate(model, coords, h, o.iso, rule, {});
+        if (stats.levels == 0) eta = absoluteEta(values, sampleVox, o.etaRelative, stats);
+        ++stats.levels;
+        bool touches = false;
+        for (VoxelValue& v : values) {
+            if (!(v.d.mu > eta)) continue;
+            const Coord& c = v.c;
+            touches = touches || c.x() == box.min().x() || c.y() == box.min().y() || c.z() == box.min().z() ||
+                      c.x() == box.max().x() || c.y() == box.max().y() || c.z() == box.max().z();
+            all.push_back(std::move(v));
+        }
+        if (!touches) break;
+        done = box;
+        const Coord dim = box.dim();
+        box.expand(std::max({2, dim.x() / 8, dim.y() / 8, dim.z() / 8}));
+    }
+    return finish(std::move(all), o, stats);
+}
+
+}  // namespace gpisvdb

@@ -1,0 +1,59 @@
+#include "gpisvdb/output/write_vdb.h"
+
+#include "gpisvdb/core/errors.h"
+
+namespace gpisvdb {
+
+namespace {
+
+template <class GridT, class Value>
+typename GridT::Ptr channel(const Band& band, const std::string& name, const Value& value) {
+    auto grid = GridT::create(typename GridT::ValueType(0));
+    grid->setName(name);
+    grid->setTransform(band.index->transform().copy());
+    auto acc = grid->getAccessor();
+    for (std::size_t i = 0; i < band.size(); ++i) acc.setValue(band.coord[i], value(i));
+    return grid;
+}
+
+}  // namespace
+
+void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
+                  const std::vector<NamedChannel>& extra) {
+    openvdb::initialize();
+    openvdb::GridPtrVec grids;
+    auto mu = channel<openvdb::FloatGrid>(band, "mu", [&](std::size_t i) { return band.mu[i]; });
+    mu->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grids.push_back(mu);
+    grids.push_back(channel<openvdb::FloatGrid>(band, "mean", [&](std::size_t i) { return band.mean[i]; }));
+    grids.push_back(channel<openvdb::FloatGrid>(band, "stddev", [&](std::size_t i) { return band.stddev[i]; }));
+    auto tDiag = channel<openvdb::Vec3SGrid>(band, "T_diag", [&](std::size_t i) {
+        return openvdb::Vec3s(band.T[i][0], band.T[i][1], band.T[i][2]);
+    });
+    auto tOff = channel<openvdb::Vec3SGrid>(band, "T_offdiag", [&](std::size_t i) {
+        return openvdb::Vec3s(band.T[i][3], band.T[i][4], band.T[i][5]);
+    });
+    tDiag->setVectorType(openvdb::VEC_INVARIANT);
+    tOff->setVectorType(openvdb::VEC_INVARIANT);
+    grids.push_back(tDiag);
+    grids.push_back(tOff);
+    auto normal = channel<openvdb::Vec3SGrid>(band, "normal", [&](std::size_t i) { return band.normal[i]; });
+    normal->setVectorType(openvdb::VEC_COVARIANT_NORMALIZE);
+    grids.push_back(normal);
+    grids.push_back(channel<openvdb::Int32Grid>(band, "stencil_width", [&](std::size_t i) { return int(band.stencil[i].width); }));
+    for (const NamedChannel& c : extra) {
+        if (!c.values || c.values->size() != band.size()) throw Error("channel '" + c.name + "' does not match the band");
+        grids.push_back(channel<openvdb::FloatGrid>(band, c.name, [&](std::size_t i) { return (*c.values)[i]; }));
+    }
+    for (auto& g : grids) g->setSaveFloatAsHalf(false);
+    try {
+        openvdb::io::File file(path);
+        file.setCompression(openvdb::io::COMPRESS_BLOSC);
+        file.write(grids, metadata);
+        file.close();
+    } catch (const openvdb::Exception& e) {
+        throw OutputError(path + ": cannot write the VDB file: " + e.what());
+    }
+}
+
+}  // namespace gpisvdb

@@ -1,0 +1,50 @@
+#include "gpisvdb/stencil/resolution.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <tbb/parallel_for.h>
+
+#include "gpisvdb/core/errors.h"
+#include "gpisvdb/kacrice/kac_rice.h"
+#include "gpisvdb/stencil/selling.h"
+
+namespace gpisvdb {
+
+Mat3d regularise(const Mat3d& T, double maxAnisotropy, bool& changed) {
+    Eigen::SelfAdjointEigenSolver<Mat3d> eig(T);
+    const double lmax = eig.eigenvalues().maxCoeff(), lmin = eig.eigenvalues().minCoeff();
+    const double floor = lmax / (maxAnisotropy * maxAnisotropy);
+    changed = lmax > 0 && lmin < floor;
+    if (!changed) return T;
+    Mat3d R = T;
+    R.diagonal().array() += floor - lmin;
+    return R;
+}
+
+Resolution chooseResolution(const GpisModel& model, const Samples& samples, const ResolutionOptions& options,
+                            const Progress& progress) {
+    if (!(options.resolutionScale > 0) || !std::isfinite(options.resolutionScale))
+        throw ParameterError("--resolution-scale must be finite and > 0");
+    if (!(options.maxAnisotropy >= 1)) throw ParameterError("--max-anisotropy must be >= 1");
+    const QmcRule rule(options.qmcSamples);
+    const std::vector<ValueGradient> z = model.evaluate(samples.position, progress);
+    std::vector<int> width(z.size(), 0);
+    std::vector<double> muWidth(z.size(), 0);
+    tbb::parallel_for(std::size_t(0), z.size(), [&](std::size_t i) {
+        const SurfaceDensity d = kacRice(z[i], options.iso, rule);
+        bool changed = false;
+        if (d.mu > 0) width[i] = selling(regularise(d.T, options.maxAnisotropy, changed)).width();
+        const double g = z[i].mean.tail<3>().norm();
+        muWidth[i] = g > 0 ? std::sqrt(std::max(0.0, z[i].cov(0, 0))) / g : 0.0;
+    });
+    Resolution r;
+    r.maxStencilL1 = std::max(1, *std::max_element(width.begin(), width.end()));
+    r.hStar = options.resolutionScale * samples.lengthScale / r.maxStencilL1;
+    std::nth_element(muWidth.begin(), muWidth.begin() + long(muWidth.size() / 2), muWidth.end());
+    r.muWidth = muWidth[muWidth.size() / 2];
+    r.h = r.muWidth > 0 ? std::min(r.hStar, 0.5 * r.muWidth) : r.hStar;
+    return r;
+}
+
+}  // namespace gpisvdb
