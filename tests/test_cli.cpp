@@ -66,12 +66,12 @@ TEST_CASE("cli: evaluate writes one row per query point with the documented head
     std::ifstream in(out);
     std::string header;
     std::getline(in, header);
-    CHECK(header == "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33");
+    CHECK(header == "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz");
     std::string row;
     int rows = 0;
     while (std::getline(in, row)) {
         ++rows;
-        CHECK(std::count(row.begin(), row.end(), ',') == 16);
+        CHECK(std::count(row.begin(), row.end(), ',') == 23);
     }
     CHECK(rows == 3);
 }
@@ -97,6 +97,7 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
     const std::string pts = temp("pts3.xyz", "0 0 0\n");
     const std::string out = temp("bad.csv");
+    const std::string vdb = temp("bad.vdb");
     struct Case {
         std::string args, expect;
     };
@@ -117,6 +118,14 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"evaluate " + bunny + " --at " + temp("q.xyz", "0 0 x\n") + " -o " + out, "not a finite number"},
         {"evaluate " + bunny + " --at " + pts + " -o /nonexistent-dir/out.csv", "does not exist"},
         {"info " + temp("nan.xyz", "0 0 0 0 0 1\n1 nan 0 0 0 1\n"), "non-finite"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --qmc 0", "--qmc"},
+        {"band " + bunny + " -o " + vdb + " --eta 0", "--eta"},
+        {"band " + bunny + " -o " + vdb + " --eta -1", "--eta"},
+        {"band " + bunny + " -o " + vdb + " --qmc 0", "--qmc"},
+        {"band " + bunny + " -o " + vdb + " --voxel-size 1e-5", "--voxel-size"},
+        {"band " + bunny + " -o " + vdb + " --voxel-size 0.3 --max-memory 1M", "--voxel-size"},
+        {"band " + bunny + " -o " + vdb + " --max-memory lots", "--max-memory"},
+        {"band " + bunny + " -o " + vdb + " --sigma 0", "--sigma"},
     };
     for (const Case& c : cases) {
         fs::remove(out);
@@ -126,6 +135,7 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         CHECK(lines(r.err) == 1);
         CHECK_THAT(r.err, Catch::Contains(c.expect));
         CHECK_FALSE(leftovers(out));
+        CHECK_FALSE(leftovers(vdb));
     }
 }
 
@@ -151,4 +161,22 @@ TEST_CASE("cli: demo writes a VDB with the mean and stddev grids", "[cli]") {
     ss << in.rdbuf();
     CHECK_THAT(ss.str(), Catch::Contains("mean"));
     CHECK_THAT(ss.str(), Catch::Contains("stddev"));
+}
+
+TEST_CASE("cli: band writes a readable .vdb and a JSON report with the documented fields", "[cli]") {
+    const std::string vdb = temp("bunny.vdb"), json = temp("bunny.json");
+    const Run r = run("band " + gpisvdb::test::dataPath("bunny.obj") + " -o " + vdb + " --report " + json +
+                      " --sigma 2 --voxel-size 0.4 --quiet --threads 2");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    std::ifstream in(json);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string report = ss.str();
+    for (const char* key : {"\"voxels\"", "\"voxel_size\"", "\"bbox_voxels\"", "\"mass\"", "\"max_stencil_l1\"",
+                            "\"sigma_rel\"", "\"sigma\"", "\"model\"", "\"band\"", "\"total\"", "\"peak_rss_bytes\"",
+                            "\"band_bytes_per_voxel\""})
+        CHECK_THAT(report, Catch::Contains(key));
+    const int status = std::system(("vdb_print " + vdb + " > /dev/null 2>&1").c_str());
+    CHECK(WEXITSTATUS(status) == 0);
 }

@@ -6,6 +6,7 @@
 #include "commands.h"
 #include "common.h"
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/kacrice/kac_rice.h"
 
 namespace gpisvdb::cli {
 
@@ -44,31 +45,43 @@ void addEvaluate(CLI::App& app, Action& action) {
     struct Args {
         std::string input, at, output;
         ModelFlags flags;
+        double iso = 0.5;
+        int qmc = 512;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
     cmd->add_option("--at", a->at, "query points, one 'x y z' per line (world units)")->required();
     cmd->add_option("-o,--output", a->output, "output CSV")->required();
     addModelFlags(*cmd, a->flags, true);
+    cmd->add_option("--iso", a->iso, "iso-value u of the surface phi = u (for mu and T)")->capture_default_str();
+    cmd->add_option("--qmc", a->qmc, "QMC points S for mu and T (>= 1)")->capture_default_str();
     cmd->footer("Columns: x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33 (c: covariance of\n"
-                "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row).\n"
+                "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row), then the Kac-Rice surface\n"
+                "density mu and tangent tensor T: mu,Txx,Txy,Txz,Tyy,Tyz,Tzz (world units^-1).\n"
                 "Example:\n  gpisvdb evaluate bunny.obj --at points.xyz -o values.csv --sigma 0.25");
     cmd->callback([&action, a] {
         action = [a] {
             const auto threads = limitThreads(a->flags.threads);
             const InputData data = readInput(a->input);
             const std::vector<Vec3d> xs = readQueryPoints(a->at);
+            if (!std::isfinite(a->iso)) throw ParameterError("--iso must be finite");
+            const QmcRule rule(a->qmc);
             AtomicOutput out(a->output);
             const LoadedModel m = loadModel(data, a->flags);
             const auto values = m.model->evaluate(xs, makeProgress(a->flags.quiet));
             std::ofstream csv(out.tempPath());
-            csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33\n" << std::setprecision(17);
+            csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz\n"
+                << std::setprecision(17);
             for (std::size_t i = 0; i < xs.size(); ++i) {
                 const ValueGradient& v = values[i];
                 csv << xs[i].x() << ',' << xs[i].y() << ',' << xs[i].z();
                 for (int k = 0; k < 4; ++k) csv << ',' << v.mean[k];
                 for (int r = 0; r < 4; ++r)
                     for (int c = r; c < 4; ++c) csv << ',' << v.cov(r, c);
+                const SurfaceDensity d = kacRice(v, a->iso, rule);
+                csv << ',' << d.mu;
+                for (int r = 0; r < 3; ++r)
+                    for (int c = r; c < 3; ++c) csv << ',' << d.T(r, c);
                 csv << '\n';
             }
             csv.close();

@@ -40,7 +40,8 @@ void writeBandVdb(const Band& band, const std::string& path, const openvdb::Meta
     auto normal = channel<openvdb::Vec3SGrid>(band, "normal", [&](std::size_t i) { return band.normal[i]; });
     normal->setVectorType(openvdb::VEC_COVARIANT_NORMALIZE);
     grids.push_back(normal);
-    grids.push_back(channel<openvdb::Int32Grid>(band, "stencil_width", [&](std::size_t i) { return int(band.stencil[i].width); }));
+    // Integer-valued, but a float grid: Debian's pyopenvdb cannot read a file holding an Int32Grid at all.
+    grids.push_back(channel<openvdb::FloatGrid>(band, "stencil_width", [&](std::size_t i) { return float(band.stencil[i].width); }));
     for (const NamedChannel& c : extra) {
         if (!c.values || c.values->size() != band.size()) throw Error("channel '" + c.name + "' does not match the band");
         grids.push_back(channel<openvdb::FloatGrid>(band, c.name, [&](std::size_t i) { return (*c.values)[i]; }));

@@ -1,8 +1,8 @@
 #pragma once
 // Writing a band as an OpenVDB file (DESIGN §5): float32 grids, Blosc compression, the voxel size and origin in
 // each grid's transform (voxel k is centred at h·k), so the file opens in place in Houdini and Blender.
-// Only registered grid types are written (float, Vec3f, int32): any other would make the whole file unreadable
-// to vdb_print and pyopenvdb.
+// Only float and Vec3f grids are written: an unregistered type (Mat3s) makes the whole file unreadable to
+// vdb_print and pyopenvdb, and Debian's pyopenvdb refuses a file with an Int32Grid too.
 #include <openvdb/openvdb.h>
 #include <string>
 #include <vector>
@@ -17,8 +17,8 @@ struct NamedChannel {
     const std::vector<float>* values = nullptr;
 };
 
-/// Grids: mu (fog volume), mean, stddev, T_diag (xx, yy, zz), T_offdiag (xy, xz, yz), normal, stencil_width,
-/// then `extra`. Throws OutputError when the file cannot be written.
+/// Grids: mu (fog volume), mean, stddev, T_diag (xx, yy, zz), T_offdiag (xy, xz, yz), normal (outward unit),
+/// stencil_width (max ‖e‖₁, as float), then `extra`. Throws OutputError when the file cannot be written.
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
                   const std::vector<NamedChannel>& extra = {});
 
