@@ -37,7 +37,7 @@ Coord voxelOf(const Vec3d& p, double h) {
 }
 
 /// Evaluates the GPIS and Kac–Rice at voxel centres h·c, in parallel.
-std::vector<VoxelValue> evaluate(const GpisModel& model, const std::vector<Coord>& coords, double h, double iso,
+std::vector<VoxelValue> evaluateVoxels(const GpisModel& model, const std::vector<Coord>& coords, double h, double iso,
                                  const QmcRule& rule, const Progress& progress) {
     std::vector<Vec3d> xs(coords.size());
     for (std::size_t i = 0; i < coords.size(); ++i) xs[i] = h * Vec3d(coords[i].x(), coords[i].y(), coords[i].z());
@@ -160,73 +160,78 @@ const std::array<Coord, kNeighbours>& neighbourOffsets() {
     return n;
 }
 
+/// One round of either builder: evaluates a batch of voxels; the first round also fixes η.
+struct Rounds {
+    const GpisModel& model;
+    const BandOptions& options;
+    const Progress& progress;
+    const QmcRule rule;
+    const std::vector<Coord> sampleVox;
+    BandStats stats;
+    double eta = 0;
+
+    Rounds(const GpisModel& m, const Samples& samples, const BandOptions& o, const Progress& p)
+        : model(m), options(o), progress(p), rule(o.qmcSamples), sampleVox(sampleVoxels(samples, o.voxelSize)) {}
+
+    std::vector<VoxelValue> evaluate(const std::vector<Coord>& coords) {
+        progress.checkInterrupt();
+        stats.evaluated += coords.size();
+        checkBudget(stats.evaluated, options, options.voxelSize);
+        std::vector<VoxelValue> values = evaluateVoxels(model, coords, options.voxelSize, options.iso, rule, {});
+        if (stats.levels++ == 0) eta = absoluteEta(values, sampleVox, options.etaRelative, stats);
+        return values;
+    }
+};
+
 }  // namespace
 
 BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
     checkOptions(o);
-    const QmcRule rule(o.qmcSamples);
-    const double h = o.voxelSize;
-    BandStats stats;
+    Rounds rounds(model, samples, o, progress);
 
     // === Seeds: the samples' voxels and their 26 neighbours
-    const std::vector<Coord> sampleVox = sampleVoxels(samples, h);
     openvdb::MaskGrid visited(false);
     auto seen = visited.getAccessor();
     std::vector<Coord> frontier;
-    for (const Coord& c : sampleVox) {
+    for (const Coord& c : rounds.sampleVox) {
         for (const Coord& d : neighbourOffsets())
             if (!seen.isValueOn(c + d)) seen.setValueOn(c + d), frontier.push_back(c + d);
         if (!seen.isValueOn(c)) seen.setValueOn(c), frontier.push_back(c);
     }
     std::vector<VoxelValue> accepted;
-    double eta = 0;
     // === Breadth-first search: evaluate the frontier, keep μ > η, visit the kept voxels' new neighbours
     while (!frontier.empty()) {
-        progress.checkInterrupt();
-        stats.evaluated += frontier.size();
-        checkBudget(stats.evaluated, o, h);
-        std::vector<VoxelValue> values = evaluate(model, frontier, h, o.iso, rule, {});
-        if (stats.levels == 0) eta = absoluteEta(values, sampleVox, o.etaRelative, stats);
-        ++stats.levels;
+        std::vector<VoxelValue> values = rounds.evaluate(frontier);
         frontier.clear();
         for (VoxelValue& v : values) {
-            if (!(v.d.mu > eta)) continue;
+            if (!(v.d.mu > rounds.eta)) continue;
             for (const Coord& d : neighbourOffsets())
                 if (!seen.isValueOn(v.c + d)) seen.setValueOn(v.c + d), frontier.push_back(v.c + d);
             accepted.push_back(std::move(v));
         }
-        progress.update("band", 1.0 - 1.0 / (1.0 + 0.1 * stats.levels));
+        progress.update("band", 1.0 - 1.0 / (1.0 + 0.1 * rounds.stats.levels));
     }
     progress.update("band", 1.0);
-    return finish(std::move(accepted), o, stats);
+    return finish(std::move(accepted), o, rounds.stats);
 }
 
 BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
     checkOptions(o);
-    const QmcRule rule(o.qmcSamples);
-    const double h = o.voxelSize;
-    BandStats stats;
-    const std::vector<Coord> sampleVox = sampleVoxels(samples, h);
+    Rounds rounds(model, samples, o, progress);
     openvdb::CoordBBox box;
-    for (const Coord& c : sampleVox) box.expand(c);
+    for (const Coord& c : rounds.sampleVox) box.expand(c);
     box.expand(1);
     std::vector<VoxelValue> all;
     openvdb::CoordBBox done;  // empty: nothing scanned yet
-    double eta = 0;
     // === Scan the box; grow it while band voxels touch its boundary (the scan must not cut the band)
     for (;;) {
-        progress.checkInterrupt();
         std::vector<Coord> coords;
         for (auto it = box.begin(); it; ++it)
             if (done.empty() || !done.isInside(*it)) coords.push_back(*it);
-        stats.evaluated += coords.size();
-        checkBudget(stats.evaluated, o, h);
-        std::vector<VoxelValue> values = evaluate(model, coords, h, o.iso, rule, {});
-        if (stats.levels == 0) eta = absoluteEta(values, sampleVox, o.etaRelative, stats);
-        ++stats.levels;
+        std::vector<VoxelValue> values = rounds.evaluate(coords);
         bool touches = false;
         for (VoxelValue& v : values) {
-            if (!(v.d.mu > eta)) continue;
+            if (!(v.d.mu > rounds.eta)) continue;
             const Coord& c = v.c;
             touches = touches || c.x() == box.min().x() || c.y() == box.min().y() || c.z() == box.min().z() ||
                       c.x() == box.max().x() || c.y() == box.max().y() || c.z() == box.max().z();
@@ -237,7 +242,7 @@ BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOp
         const Coord dim = box.dim();
         box.expand(std::max({2, dim.x() / 8, dim.y() / 8, dim.z() / 8}));
     }
-    return finish(std::move(all), o, stats);
+    return finish(std::move(all), o, rounds.stats);
 }
 
 }  // namespace gpisvdb

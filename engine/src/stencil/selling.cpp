@@ -50,70 +50,75 @@ Eigen::Matrix2d Selling2::reconstruct() const {
     return T;
 }
 
-Selling3 selling(const Mat3d& T, const SellingOptions& options) {
-    // === Obtuse superbase: flip while some ⟨b_i, T b_j⟩ > 0 (each flip lowers Σ_i ⟨b_i, T b_i⟩)
-    std::array<Eigen::Vector3i, 4> b = {Eigen::Vector3i(1, 0, 0), Eigen::Vector3i(0, 1, 0), Eigen::Vector3i(0, 0, 1),
-                                        Eigen::Vector3i(-1, -1, -1)};
-    auto dot = [&](int i, int j) { return b[i].cast<double>().dot(T * b[j].cast<double>()); };
-    static constexpr int kPairs[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2}, {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
-    Selling3 out;
+namespace {
+
+/// Selling's algorithm in dimension D over the D + 1 vectors of a superbase: flip while some pair is not obtuse,
+/// then one term per pair, λ_ij = −⟨b_i, T b_j⟩ with the pair's offset. `flip(b, i, j)` and `offset(b, i, j)`
+/// carry what depends on the dimension.
+template <int D, class Result, class Flip, class Offset>
+Result decompose(const Eigen::Matrix<double, D, D>& T, const SellingOptions& options, Flip flip, Offset offset) {
+    using IVec = Eigen::Matrix<int, D, 1>;
+    std::array<IVec, D + 1> b;
+    for (int i = 0; i < D; ++i) b[std::size_t(i)] = IVec::Unit(i);
+    b[D] = -IVec::Ones();
+    auto dot = [&](int i, int j) { return b[std::size_t(i)].template cast<double>().dot(T * b[std::size_t(j)].template cast<double>()); };
+    Result out;
     bool obtuse = false;
     while (!obtuse && out.flips < options.maxFlips) {
         obtuse = true;
-        for (const auto& p : kPairs) {
-            const int i = p[0], j = p[1], k = p[2], l = p[3];
-            if (dot(i, j) > 0) {
-                b[k] += b[i];
-                b[l] += b[i];
-                b[i] = -b[i];
-                ++out.flips;
-                obtuse = false;
-                break;
-            }
-        }
+        for (int i = 0; i <= D && obtuse; ++i)
+            for (int j = i + 1; j <= D && obtuse; ++j)
+                if (dot(i, j) > 0) {
+                    flip(b, i, j);
+                    ++out.flips;
+                    obtuse = false;
+                }
     }
     out.capped = !obtuse;
-    // === λ_ij = −⟨b_i, T b_j⟩, e_ij = b_k × b_l
     const double drop = options.dropRelative * kEps * std::abs(T.trace());
-    for (const auto& p : kPairs) {
-        const double lambda = -exactDot<3>(b[p[0]], T, b[p[1]]);
-        if (!(lambda > drop)) continue;
-        out.weight[out.count] = lambda;
-        out.offset[out.count] = b[p[2]].cross(b[p[3]]);
-        ++out.count;
-    }
+    for (int i = 0; i <= D; ++i)
+        for (int j = i + 1; j <= D; ++j) {
+            const double lambda = -exactDot<D>(b[std::size_t(i)], T, b[std::size_t(j)]);
+            if (!(lambda > drop)) continue;
+            out.weight[std::size_t(out.count)] = lambda;
+            out.offset[std::size_t(out.count)] = offset(b, i, j);
+            ++out.count;
+        }
     return out;
 }
 
+}  // namespace
+
+Selling3 selling(const Mat3d& T, const SellingOptions& options) {
+    using B = std::array<Eigen::Vector3i, 4>;
+    // (b_i, b_j, b_k, b_l) → (−b_i, b_j, b_k + b_i, b_l + b_i); e_ij = b_k × b_l
+    auto flip = [](B& b, int i, int j) {
+        for (int k = 0; k < 4; ++k)
+            if (k != i && k != j) b[std::size_t(k)] += b[std::size_t(i)];
+        b[std::size_t(i)] = -b[std::size_t(i)];
+    };
+    auto offset = [](const B& b, int i, int j) {
+        int k = 0;
+        while (k == i || k == j) ++k;
+        int l = k + 1;
+        while (l == i || l == j) ++l;
+        return Eigen::Vector3i(b[std::size_t(k)].cross(b[std::size_t(l)]));
+    };
+    return decompose<3, Selling3>(T, options, flip, offset);
+}
+
 Selling2 selling(const Eigen::Matrix2d& T, const SellingOptions& options) {
-    std::array<Eigen::Vector2i, 3> b = {Eigen::Vector2i(1, 0), Eigen::Vector2i(0, 1), Eigen::Vector2i(-1, -1)};
-    auto dot = [&](int i, int j) { return b[i].cast<double>().dot(T * b[j].cast<double>()); };
-    static constexpr int kPairs[3][3] = {{0, 1, 2}, {0, 2, 1}, {1, 2, 0}};
-    Selling2 out;
-    bool obtuse = false;
-    while (!obtuse && out.flips < options.maxFlips) {
-        obtuse = true;
-        for (const auto& p : kPairs) {
-            const int i = p[0], j = p[1], k = p[2];
-            if (dot(i, j) > 0) {
-                b[k] = b[i] - b[j];
-                b[i] = -b[i];
-                ++out.flips;
-                obtuse = false;
-                break;
-            }
-        }
-    }
-    out.capped = !obtuse;
-    const double drop = options.dropRelative * kEps * std::abs(T.trace());
-    for (const auto& p : kPairs) {
-        const double lambda = -exactDot<2>(b[p[0]], T, b[p[1]]);
-        if (!(lambda > drop)) continue;
-        out.weight[out.count] = lambda;
-        out.offset[out.count] = Eigen::Vector2i(-b[p[2]].y(), b[p[2]].x());
-        ++out.count;
-    }
-    return out;
+    using B = std::array<Eigen::Vector2i, 3>;
+    // (b_i, b_j, b_k) → (−b_i, b_j, b_i − b_j); e_ij = b_k rotated by 90°
+    auto flip = [](B& b, int i, int j) {
+        b[std::size_t(3 - i - j)] = b[std::size_t(i)] - b[std::size_t(j)];
+        b[std::size_t(i)] = -b[std::size_t(i)];
+    };
+    auto offset = [](const B& b, int i, int j) {
+        const Eigen::Vector2i& k = b[std::size_t(3 - i - j)];
+        return Eigen::Vector2i(-k.y(), k.x());
+    };
+    return decompose<2, Selling2>(T, options, flip, offset);
 }
 
 }  // namespace gpisvdb
