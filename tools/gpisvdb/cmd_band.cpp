@@ -38,7 +38,8 @@ double parseBytes(const std::string& s) {
 double physicalMemory() { return double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE)); }
 
 /// Peak bytes per evaluated voxel while the band is built (values of the visited voxels, the frontier's model
-/// evaluations, the visited mask) and per band voxel once built; measured, see docs/benchmarks.md.
+/// evaluations, the visited mask, then the band): measured ≈ 270 (bunny, 1.57 M evaluated voxels, peak RSS
+/// 422 MB); 400 leaves headroom.
 constexpr double kBuildBytesPerVoxel = 400;
 
 }  // namespace

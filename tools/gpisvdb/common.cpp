@@ -36,7 +36,7 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
         ->capture_default_str();
     if (withModel) {
         app.add_option("--smoothing", f.smoothingRel, "kernel smoothing s, relative to ℓ (> 0)")->capture_default_str();
-        app.add_option("--beta", f.beta, "Barnes-Hut opening criterion: a node is far beyond beta × its radius (> 1)")
+        app.add_option("--beta", f.beta, "Barnes-Hut accuracy: a node stands in for its samples beyond beta × its radius (2 × beta for the covariance near the query) (> 1)")
             ->capture_default_str();
         app.add_flag("--exact", f.exact, "use the direct O(n) sum instead of Barnes-Hut");
     }

@@ -3,7 +3,6 @@
 #include <Eigen/Eigenvalues>
 #include <array>
 #include <cmath>
-#include <numeric>
 
 #include "contributions.h"
 #include "gpisvdb/core/errors.h"

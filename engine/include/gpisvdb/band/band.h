@@ -40,8 +40,4 @@ struct Band {
     openvdb::CoordBBox bbox() const;
 };
 
-/// Bytes per band voxel the channels take, for estimates before a band is built (the index tree adds ~1–2).
-constexpr double kChannelBytesPerVoxel =
-    sizeof(openvdb::Coord) + 4 + 24 + 4 + 4 + 12 + sizeof(VoxelStencil);
-
 }  // namespace gpisvdb
