@@ -126,6 +126,8 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"band " + bunny + " -o " + vdb + " --voxel-size 0.3 --max-memory 1M", "--voxel-size"},
         {"band " + bunny + " -o " + vdb + " --max-memory lots", "--max-memory"},
         {"band " + bunny + " -o " + vdb + " --sigma 0", "--sigma"},
+        {"green " + bunny + " --source 0,nan,0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "--source"},
+        {"green " + bunny + " --source 0,6,0 -o " + vdb + " --tolerance 0", "--tolerance"},
     };
     for (const Case& c : cases) {
         fs::remove(out);
@@ -179,4 +181,23 @@ TEST_CASE("cli: band writes a readable .vdb and a JSON report with the documente
         CHECK_THAT(report, Catch::Contains(key));
     const int status = std::system(("vdb_print " + vdb + " > /dev/null 2>&1").c_str());
     CHECK(WEXITSTATUS(status) == 0);
+}
+
+TEST_CASE("cli: green writes the band grids and 'green', with solver fields in the report", "[cli]") {
+    const std::string vdb = temp("green.vdb"), json = temp("green.json");
+    const Run r = run("green " + gpisvdb::test::dataPath("bunny.obj") + " --source 0.5,6,1 -o " + vdb + " --report " + json +
+                      " --sigma 2 --voxel-size 0.4 --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    std::ifstream in(json);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    for (const char* key : {"\"iterations\"", "\"relative_residual\"", "\"operators\"", "\"solve\""})
+        CHECK_THAT(ss.str(), Catch::Contains(key));
+    const int status = std::system(("vdb_print -l " + vdb + " > " + vdb + ".txt 2>&1").c_str());
+    CHECK(WEXITSTATUS(status) == 0);
+    std::ifstream t(vdb + ".txt");
+    std::stringstream ts;
+    ts << t.rdbuf();
+    CHECK_THAT(ts.str(), Catch::Contains("Name: green"));
 }

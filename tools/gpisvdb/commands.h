@@ -10,5 +10,6 @@ void addInfo(CLI::App& app, Action& action);
 void addEvaluate(CLI::App& app, Action& action);
 void addDemo(CLI::App& app, Action& action);
 void addBand(CLI::App& app, Action& action);
+void addGreen(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

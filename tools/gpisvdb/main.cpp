@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
     cli::addEvaluate(app, action);
     cli::addDemo(app, action);
     cli::addBand(app, action);
+    cli::addGreen(app, action);
     for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
     try {
         app.parse(argc, argv);

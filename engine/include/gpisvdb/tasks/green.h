@@ -1,0 +1,26 @@
+#pragma once
+// The Green's function of the GPIS Laplacian (paper Alg. 1, Fig. 5): L f = M δ_y, y the band voxel nearest the
+// source point, δ_y the Dirac of the measure μ at y (∫ δ_y u dμ = u(y), i.e. M δ_y = e_y). With this δ the
+// result f(x) = G(x, y) = (L⁻¹)_xy is symmetric in x and y. (DESIGN §3.9 takes the Lebesgue Dirac e_y/h³,
+// giving μ(y) G(x, y): not symmetric wherever μ(x) ≠ μ(y); multiply by μ(y) to get that scaling.)
+#include <vector>
+
+#include "gpisvdb/band/band.h"
+#include "gpisvdb/solve/pcg.h"
+
+namespace gpisvdb {
+
+struct GreenResult {
+    std::vector<float> values;   ///< G(·, y) by linear index
+    std::size_t sourceIndex = 0; ///< y's linear index
+    PcgResult solver;
+};
+
+/// Band voxel nearest to a world-space point (ties: lowest linear index). Throws on an empty band.
+std::size_t nearestBandVoxel(const Band& band, const Vec3d& point);
+
+/// Solves L f = e_y with the PCG; `L` is the band's assembled Laplacian.
+GreenResult greensFunction(const Band& band, const SparseMatrixF& L, const Vec3d& source,
+                           const PcgOptions& options = {}, const Progress& progress = {});
+
+}  // namespace gpisvdb

@@ -1,0 +1,42 @@
+#pragma once
+// What every band-based command shares: its flags, building the band from an input, the .vdb metadata and the
+// JSON report (DESIGN §5).
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <openvdb/openvdb.h>
+
+#include "common.h"
+#include "gpisvdb/band/build_band.h"
+#include "gpisvdb/stencil/resolution.h"
+
+namespace gpisvdb::cli {
+
+struct BandFlags {
+    ModelFlags model;
+    BandOptions band;
+    double resolutionScale = 1.0;
+    std::string maxMemory;  ///< "8G", "512M", "1e9"; empty: half the RAM
+    std::string report;     ///< JSON report path; empty: none
+};
+void addBandFlags(CLI::App& cmd, BandFlags& flags);
+
+struct BandJob {
+    std::string inputPath;
+    LoadedModel model;
+    Resolution resolution;
+    BandOptions options;  ///< as used (voxel size resolved)
+    BandResult result;
+    double maxMemory = 0;
+    double secondsModel = 0, secondsBand = 0;
+};
+
+/// Model, resolution, memory check, band: the first half of every band command.
+BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress);
+
+/// File metadata: version, command line, every parameter relative and absolute, input, band size and mass.
+openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags);
+
+/// The report's input, parameters, band, memory and outputs; the caller adds timings and its own sections.
+nlohmann::json bandReport(const BandJob& job, const BandFlags& flags);
+
+}  // namespace gpisvdb::cli
