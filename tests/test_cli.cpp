@@ -194,6 +194,18 @@ TEST_CASE("cli: green writes the band grids and 'green', with solver fields in t
     ss << in.rdbuf();
     for (const char* key : {"\"iterations\"", "\"relative_residual\"", "\"operators\"", "\"solve\""})
         CHECK_THAT(ss.str(), Catch::Contains(key));
+    // mesh: every grid the task wrote can be sampled on the mean surface; bad requests fail cleanly.
+    const std::string ply = temp("green.ply");
+    CHECK(run("mesh " + vdb + " --grid green --grid normal -o " + ply + " --quiet").code == 0);
+    CHECK(std::ifstream(ply).good());
+    const std::string bad = temp("bad.ply");
+    fs::remove(bad);
+    const Run noGrid = run("mesh " + vdb + " --grid nosuch -o " + bad);
+    CHECK(noGrid.code == 1);
+    CHECK_THAT(noGrid.err, Catch::Contains("no grid 'nosuch'"));
+    CHECK(run("mesh " + vdb + " --grid mu -o " + temp("bad.stl")).code == 1);
+    CHECK(run("mesh " + ply + " --grid mu -o " + bad).code == 1);  // not a VDB file
+    CHECK_FALSE(leftovers(bad));
     const int status = std::system(("vdb_print -l " + vdb + " > " + vdb + ".txt 2>&1").c_str());
     CHECK(WEXITSTATUS(status) == 0);
     std::ifstream t(vdb + ".txt");

@@ -1,0 +1,34 @@
+#pragma once
+// The mean surface {γ = u} of a band file, with any grid sampled at its vertices (DESIGN §5).
+#include <array>
+#include <openvdb/openvdb.h>
+#include <string>
+#include <vector>
+
+namespace gpisvdb {
+
+struct SurfaceMesh {
+    std::vector<openvdb::Vec3s> vertices;          ///< world units
+    std::vector<std::array<int, 3>> triangles;
+    std::vector<std::string> arrayNames;           ///< per-vertex arrays
+    std::vector<std::vector<float>> arrays;        ///< arrays[k] has components(k) × vertices values
+    std::vector<int> components;                   ///< 1 (float grid) or 3 (vec3 grid)
+};
+
+/// Iso-surface of `mean` at u by OpenVDB's volumeToMesh. The band holds γ only near the surface: the values
+/// outside it are filled with the side they lie on (signed flood fill of u − γ), so no spurious surface
+/// appears where the band ends.
+SurfaceMesh meanSurface(const openvdb::FloatGrid& mean, double iso);
+
+/// Adds `grid` (a float or vec3 grid) trilinearly sampled at the mesh's vertices, as an array named after it.
+void sampleAtVertices(SurfaceMesh& mesh, const openvdb::GridBase& grid);
+
+enum class MeshFormat { Ply, Vtp };
+/// The format named by a path's extension (.ply or .vtp); throws OutputError otherwise.
+MeshFormat meshFormatOf(const std::string& path);
+
+/// Writes PLY (binary little endian; arrays as vertex properties) or VTP (VTK XML; arrays as point data).
+/// Throws OutputError.
+void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat format);
+
+}  // namespace gpisvdb

@@ -1,0 +1,124 @@
+#include "gpisvdb/output/mean_surface.h"
+
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tools/VolumeToMesh.h>
+#include <vtkCellArray.h>
+#include <vtkFloatArray.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkSmartPointer.h>
+#include <vtkXMLPolyDataWriter.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "gpisvdb/core/errors.h"
+
+namespace gpisvdb {
+
+SurfaceMesh meanSurface(const openvdb::FloatGrid& mean, double iso) {
+    // === u − γ: negative inside (γ ≈ 1), a level-set sign convention, then fill the outside of the band by side
+    auto phi = openvdb::FloatGrid::create(1.0f);
+    phi->setTransform(mean.transform().copy());
+    phi->tree().topologyUnion(mean.tree());
+    auto acc = phi->getAccessor();
+    for (auto it = mean.cbeginValueOn(); it; ++it) acc.setValue(it.getCoord(), float(iso) - *it);
+    openvdb::tools::signedFloodFill(phi->tree());
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> tris;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(*phi, points, tris, quads, 0.0, 0.0);
+    SurfaceMesh m;
+    m.vertices = std::move(points);
+    for (const auto& t : tris) m.triangles.push_back({int(t[0]), int(t[1]), int(t[2])});
+    for (const auto& q : quads) {
+        m.triangles.push_back({int(q[0]), int(q[1]), int(q[2])});
+        m.triangles.push_back({int(q[0]), int(q[2]), int(q[3])});
+    }
+    return m;
+}
+
+void sampleAtVertices(SurfaceMesh& mesh, const openvdb::GridBase& grid) {
+    std::vector<float> values;
+    int comps = 0;
+    if (const auto* f = dynamic_cast<const openvdb::FloatGrid*>(&grid)) {
+        openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> s(*f);
+        for (const auto& p : mesh.vertices) values.push_back(s.wsSample(openvdb::Vec3d(p)));
+        comps = 1;
+    } else if (const auto* v = dynamic_cast<const openvdb::Vec3SGrid*>(&grid)) {
+        openvdb::tools::GridSampler<openvdb::Vec3SGrid, openvdb::tools::BoxSampler> s(*v);
+        for (const auto& p : mesh.vertices) {
+            const openvdb::Vec3s x = s.wsSample(openvdb::Vec3d(p));
+            values.insert(values.end(), {x[0], x[1], x[2]});
+        }
+        comps = 3;
+    } else {
+        throw InputError("grid '" + grid.getName() + "' is neither a float nor a vec3 grid");
+    }
+    mesh.arrayNames.push_back(grid.getName());
+    mesh.arrays.push_back(std::move(values));
+    mesh.components.push_back(comps);
+}
+
+MeshFormat meshFormatOf(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".ply") return MeshFormat::Ply;
+    if (ext == ".vtp") return MeshFormat::Vtp;
+    throw OutputError(path + ": unknown mesh extension '" + ext + "' (use .ply or .vtp)");
+}
+
+void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat format) {
+    if (format == MeshFormat::Ply) {
+        std::ofstream out(path, std::ios::binary);
+        out << "ply\nformat binary_little_endian 1.0\ncomment gpisvdb mean surface\nelement vertex " << mesh.vertices.size()
+            << "\nproperty float x\nproperty float y\nproperty float z\n";
+        for (std::size_t k = 0; k < mesh.arrays.size(); ++k) {
+            if (mesh.components[k] == 1) out << "property float " << mesh.arrayNames[k] << "\n";
+            else
+                for (const char* c : {"_x", "_y", "_z"}) out << "property float " << mesh.arrayNames[k] << c << "\n";
+        }
+        out << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
+        for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+            out.write(reinterpret_cast<const char*>(mesh.vertices[i].asPointer()), 3 * sizeof(float));
+            for (std::size_t k = 0; k < mesh.arrays.size(); ++k)
+                out.write(reinterpret_cast<const char*>(&mesh.arrays[k][i * std::size_t(mesh.components[k])]),
+                          std::streamsize(sizeof(float) * std::size_t(mesh.components[k])));
+        }
+        const unsigned char three = 3;
+        for (const auto& t : mesh.triangles) {
+            out.write(reinterpret_cast<const char*>(&three), 1);
+            out.write(reinterpret_cast<const char*>(t.data()), 3 * sizeof(int));
+        }
+        if (!out) throw OutputError(path + ": writing the mesh failed");
+        return;
+    }
+    {
+        auto pd = vtkSmartPointer<vtkPolyData>::New();
+        auto pts = vtkSmartPointer<vtkPoints>::New();
+        for (const auto& p : mesh.vertices) pts->InsertNextPoint(p[0], p[1], p[2]);
+        auto cells = vtkSmartPointer<vtkCellArray>::New();
+        for (const auto& t : mesh.triangles) {
+            const vtkIdType ids[3] = {t[0], t[1], t[2]};
+            cells->InsertNextCell(3, ids);
+        }
+        pd->SetPoints(pts);
+        pd->SetPolys(cells);
+        for (std::size_t k = 0; k < mesh.arrays.size(); ++k) {
+            auto a = vtkSmartPointer<vtkFloatArray>::New();
+            a->SetName(mesh.arrayNames[k].c_str());
+            a->SetNumberOfComponents(mesh.components[k]);
+            for (float v : mesh.arrays[k]) a->InsertNextValue(v);
+            pd->GetPointData()->AddArray(a);
+        }
+        auto w = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
+        w->SetFileName(path.c_str());
+        w->SetInputData(pd);
+        if (w->Write() != 1) throw OutputError(path + ": writing the mesh failed");
+    }
+}
+
+}  // namespace gpisvdb
