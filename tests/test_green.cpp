@@ -1,5 +1,6 @@
 #include <catch2/catch.hpp>
 
+#include "band_fixtures.h"
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/procedural.h"
@@ -8,23 +9,9 @@
 
 using namespace gpisvdb;
 
-namespace {
-
-const Band& torusBand() {
-    static const Band band = [] {
-        const SoupSamples ss = soupSamples(cutAbove(torus(48, 16), 0.25), {1.0});
-        const BarnesHutGpis model(ss.samples, 0.4 * ss.samples.lengthScale);
-        BandOptions o;
-        o.voxelSize = 0.06;
-        return buildBand(model, ss.samples, o).band;
-    }();
-    return band;
-}
-
-}  // namespace
 
 TEST_CASE("green: symmetric G(x,y) = G(y,x), positive, largest at its source", "[green]") {
-    const Band& band = torusBand();
+    const Band& band = test::torusGapBand();
     const SparseMatrixF L = assembleLaplacian(band);
     const PcgOptions o{1e-8, 50000};
     const Vec3d a(1.0, 0.0, -0.2), b(-0.7, 0.7, 0.1);  // on the tube, far apart; b near the gap's edge
@@ -42,7 +29,7 @@ TEST_CASE("green: symmetric G(x,y) = G(y,x), positive, largest at its source", "
 }
 
 TEST_CASE("green: the source snaps to the nearest band voxel; a non-finite source is refused", "[green]") {
-    const Band& band = torusBand();
+    const Band& band = test::torusGapBand();
     const std::size_t i = band.size() / 2;
     const Vec3d x = band.voxelSize * Vec3d(band.coord[i].x(), band.coord[i].y(), band.coord[i].z());
     CHECK(nearestBandVoxel(band, x + Vec3d(0.2, -0.1, 0.3) * band.voxelSize) == i);

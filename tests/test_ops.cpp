@@ -3,6 +3,7 @@
 #include <random>
 #include <tbb/global_control.h>
 
+#include "band_fixtures.h"
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
@@ -13,16 +14,6 @@ using namespace gpisvdb;
 
 namespace {
 
-const Band& sphereBand() {
-    static const Band band = [] {
-        const SoupSamples ss = soupSamples(icosphere(2), {1.0});
-        const BarnesHutGpis model(ss.samples, 0.4 * ss.samples.lengthScale);
-        BandOptions o;
-        o.voxelSize = 0.08;
-        return buildBand(model, ss.samples, o).band;
-    }();
-    return band;
-}
 
 std::vector<float> randomField(std::size_t n, std::uint64_t seed) {
     std::mt19937_64 rng(seed);
@@ -59,7 +50,7 @@ double energy(const Band& band, const std::vector<float>& u) {
 }  // namespace
 
 TEST_CASE("ops: u^T L u equals the energy of Eq. 24 computed from the stencils", "[ops]") {
-    const Band& band = sphereBand();
+    const Band& band = test::sphereBand();
     const SparseMatrixF L = assembleLaplacian(band);
     for (std::uint64_t seed : {1, 2, 3}) {
         const std::vector<float> u = randomField(band.size(), seed);
@@ -70,7 +61,7 @@ TEST_CASE("ops: u^T L u equals the energy of Eq. 24 computed from the stencils",
 }
 
 TEST_CASE("ops: L is symmetric and positive definite", "[ops]") {
-    const Band& band = sphereBand();
+    const Band& band = test::sphereBand();
     const SparseMatrixF L = assembleLaplacian(band);
     CHECK((SparseMatrixF(L.transpose()) - L).norm() == 0);
     const std::vector<float> u = randomField(band.size(), 4), v = randomField(band.size(), 5);
@@ -87,7 +78,7 @@ TEST_CASE("ops: L is symmetric and positive definite", "[ops]") {
 }
 
 TEST_CASE("ops: the parallel product equals Eigen's and does not depend on the thread count", "[ops]") {
-    const Band& band = sphereBand();
+    const Band& band = test::sphereBand();
     const SparseMatrixF L = assembleLaplacian(band);
     const std::vector<float> u = randomField(band.size(), 6);
     std::vector<float> one, two;
@@ -106,7 +97,7 @@ TEST_CASE("ops: the parallel product equals Eigen's and does not depend on the t
 }
 
 TEST_CASE("ops: the mass integrates to the band's expected area", "[ops]") {
-    const Band& band = sphereBand();
+    const Band& band = test::sphereBand();
     double total = 0;
     for (float m : massDiagonal(band)) total += m;
     CHECK(total == Approx(band.mass()).epsilon(1e-5));

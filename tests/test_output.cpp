@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "gpisvdb/band/build_band.h"
+#include "band_fixtures.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/output/write_vdb.h"
@@ -26,11 +26,7 @@ std::string runCapture(const std::string& cmd, int& code) {
 }
 
 std::string writeSmallBand(Band& keep) {
-    const SoupSamples ss = soupSamples(icosphere(2), {1.0});
-    const BarnesHutGpis model(ss.samples, 0.4 * ss.samples.lengthScale);
-    BandOptions o;
-    o.voxelSize = 0.08;
-    keep = buildBand(model, ss.samples, o).band;
+    keep = test::sphereBand();
     openvdb::MetaMap meta;
     meta.insertMeta("gpisvdb_version", openvdb::StringMetadata(GPISVDB_VERSION));
     meta.insertMeta("sigma_rel", openvdb::DoubleMetadata(1.0));

@@ -2,6 +2,7 @@
 #include <Eigen/SparseCholesky>
 #include <tbb/global_control.h>
 
+#include "band_fixtures.h"
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/procedural.h"
@@ -10,23 +11,9 @@
 
 using namespace gpisvdb;
 
-namespace {
-
-const Band& torusBand() {
-    static const Band band = [] {
-        const SoupSamples ss = soupSamples(torus(48, 16), {1.0});
-        const BarnesHutGpis model(ss.samples, 0.4 * ss.samples.lengthScale);
-        BandOptions o;
-        o.voxelSize = 0.06;
-        return buildBand(model, ss.samples, o).band;
-    }();
-    return band;
-}
-
-}  // namespace
 
 TEST_CASE("pcg: reaches the tolerance and agrees with a sparse Cholesky solve", "[pcg]") {
-    const Band& band = torusBand();
+    const Band& band = test::torusGapBand();
     const SparseMatrixF L = assembleLaplacian(band);
     const std::vector<float> m = massDiagonal(band);
     std::vector<float> b(band.size(), 0.0f);
@@ -47,7 +34,7 @@ TEST_CASE("pcg: reaches the tolerance and agrees with a sparse Cholesky solve", 
 }
 
 TEST_CASE("pcg: identical iterates for 1 and 2 threads", "[pcg]") {
-    const Band& band = torusBand();
+    const Band& band = test::torusGapBand();
     const SparseMatrixF L = assembleLaplacian(band);
     std::vector<float> b(band.size(), 0.0f);
     for (std::size_t i = 0; i < b.size(); i += 97) b[i] = 1.0f;
@@ -66,7 +53,7 @@ TEST_CASE("pcg: identical iterates for 1 and 2 threads", "[pcg]") {
 }
 
 TEST_CASE("pcg: a zero right-hand side gives zero; bad options are refused", "[pcg]") {
-    const Band& band = torusBand();
+    const Band& band = test::torusGapBand();
     const SparseMatrixF L = assembleLaplacian(band);
     std::vector<float> x(band.size(), 1.0f);
     const PcgResult r = solvePcg(L, std::vector<float>(band.size(), 0.0f), x);
