@@ -49,6 +49,10 @@ int main(int argc, char** argv) {
         if (a == "--part" && i + 1 < argc) part = argv[++i];
         else if (a == "--out" && i + 1 < argc) out = argv[++i];
         else if (a == "--data" && i + 1 < argc) data = argv[++i];
+        else {
+            std::cerr << "usage: bench_band [--part area|fig7|scan|scanfine|throughput|all] [--out FILE.json] [--data DIR]\n";
+            return 2;
+        }
     }
     nlohmann::json report;
     {

@@ -58,6 +58,10 @@ int main(int argc, char** argv) {
         if (a == "--quick") quick = true;
         else if (a == "--out" && i + 1 < argc) out = argv[++i];
         else if (a == "--data" && i + 1 < argc) data = argv[++i];
+        else {
+            std::cerr << "usage: bench_model [--quick] [--out FILE.json] [--data DIR]\n";
+            return 2;
+        }
     }
     nlohmann::json report;
     report["machine"] = {{"hardware_concurrency", std::thread::hardware_concurrency()}};
