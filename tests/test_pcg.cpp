@@ -33,6 +33,25 @@ TEST_CASE("pcg: reaches the tolerance and agrees with a sparse Cholesky solve", 
     CHECK((xd - exact).norm() <= 1e-4 * exact.norm());
 }
 
+TEST_CASE("pcg: incomplete Cholesky reaches the same solution in fewer iterations", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const SparseMatrixF L = assembleLaplacian(band);
+    std::vector<float> b(band.size(), 0.0f);
+    b[band.size() / 2] = 1.0f;
+    std::vector<float> xj, xi;
+    PcgOptions o;
+    o.tolerance = 1e-7;
+    const PcgResult rj = solvePcg(L, b, xj, o);
+    o.preconditioner = Preconditioner::IncompleteCholesky;
+    const PcgResult ri = solvePcg(L, b, xi, o);
+    REQUIRE(rj.converged);
+    REQUIRE(ri.converged);
+    CHECK(ri.iterations < rj.iterations);
+    double diff = 0, norm = 0;
+    for (std::size_t i = 0; i < xj.size(); ++i) diff += double(xj[i] - xi[i]) * (xj[i] - xi[i]), norm += double(xj[i]) * xj[i];
+    CHECK(std::sqrt(diff) <= 1e-4 * std::sqrt(norm));
+}
+
 TEST_CASE("pcg: identical iterates for 1 and 2 threads", "[pcg]") {
     const Band& band = test::torusGapBand();
     const SparseMatrixF L = assembleLaplacian(band);

@@ -1,6 +1,8 @@
 #include "gpisvdb/solve/pcg.h"
 
+#include <Eigen/IterativeLinearSolvers>
 #include <cmath>
+#include <memory>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -41,13 +43,27 @@ PcgResult solvePcg(const SparseMatrixF& A, const std::vector<float>& b, std::vec
     const std::size_t n = std::size_t(A.rows());
     if (b.size() != n) throw Error("solvePcg: right-hand side size does not match the matrix");
     if (x.size() != n) x.assign(n, 0.0f);
-    // === Jacobi preconditioner
+    // === Preconditioner: z = P⁻¹ r
     std::vector<float> invDiag(n);
     for (std::size_t i = 0; i < n; ++i) {
         const float d = A.coeff(int(i), int(i));
         invDiag[i] = d > 0 ? 1.0f / d : 1.0f;
     }
+    using IC = Eigen::IncompleteCholesky<float, Eigen::Lower, Eigen::AMDOrdering<int>>;
+    std::unique_ptr<IC> ic;
+    if (o.preconditioner == Preconditioner::IncompleteCholesky) {
+        ic = std::make_unique<IC>();
+        ic->compute(Eigen::SparseMatrix<float, Eigen::ColMajor, int>(A));
+        if (ic->info() != Eigen::Success) throw Error("the incomplete Cholesky factorisation failed");
+    }
     std::vector<float> r(n), z(n), p(n), Ap(n);
+    auto precondition = [&] {
+        if (ic) {
+            Eigen::Map<Eigen::VectorXf>(z.data(), long(n)) = ic->solve(Eigen::Map<const Eigen::VectorXf>(r.data(), long(n)));
+        } else {
+            forEach(n, [&](std::size_t i) { z[i] = invDiag[i] * r[i]; });
+        }
+    };
     multiply(A, x, Ap);
     forEach(n, [&](std::size_t i) { r[i] = b[i] - Ap[i]; });
     const double bNorm = std::sqrt(dot(b, b));
@@ -57,7 +73,8 @@ PcgResult solvePcg(const SparseMatrixF& A, const std::vector<float>& b, std::vec
         res.converged = true;
         return res;
     }
-    forEach(n, [&](std::size_t i) { z[i] = invDiag[i] * r[i]; p[i] = z[i]; });
+    precondition();
+    p = z;
     double rz = dot(r, z);
     res.relativeResidual = std::sqrt(dot(r, r)) / bNorm;
     // === CG iterations
@@ -70,8 +87,8 @@ PcgResult solvePcg(const SparseMatrixF& A, const std::vector<float>& b, std::vec
         forEach(n, [&](std::size_t i) {
             x[i] = float(double(x[i]) + alpha * double(p[i]));
             r[i] = float(double(r[i]) - alpha * double(Ap[i]));
-            z[i] = invDiag[i] * r[i];
         });
+        precondition();
         const double rzNext = dot(r, z);
         const double beta = rzNext / rz;
         rz = rzNext;
