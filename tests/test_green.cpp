@@ -1,10 +1,7 @@
 #include <catch2/catch.hpp>
 
 #include "band_fixtures.h"
-#include "gpisvdb/band/build_band.h"
 #include "gpisvdb/core/errors.h"
-#include "gpisvdb/input/procedural.h"
-#include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/tasks/green.h"
 
 using namespace gpisvdb;

@@ -6,8 +6,6 @@
 #include <sstream>
 
 #include "band_fixtures.h"
-#include "gpisvdb/input/procedural.h"
-#include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/output/write_vdb.h"
 #include "helpers.h"
 

@@ -3,10 +3,7 @@
 #include <tbb/global_control.h>
 
 #include "band_fixtures.h"
-#include "gpisvdb/band/build_band.h"
 #include "gpisvdb/core/errors.h"
-#include "gpisvdb/input/procedural.h"
-#include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/solve/pcg.h"
 
 using namespace gpisvdb;

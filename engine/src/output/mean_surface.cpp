@@ -96,29 +96,28 @@ void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat form
         if (!out) throw OutputError(path + ": writing the mesh failed");
         return;
     }
-    {
-        auto pd = vtkSmartPointer<vtkPolyData>::New();
-        auto pts = vtkSmartPointer<vtkPoints>::New();
-        for (const auto& p : mesh.vertices) pts->InsertNextPoint(p[0], p[1], p[2]);
-        auto cells = vtkSmartPointer<vtkCellArray>::New();
-        for (const auto& t : mesh.triangles) {
-            const vtkIdType ids[3] = {t[0], t[1], t[2]};
-            cells->InsertNextCell(3, ids);
-        }
-        pd->SetPoints(pts);
-        pd->SetPolys(cells);
-        for (std::size_t k = 0; k < mesh.arrays.size(); ++k) {
-            auto a = vtkSmartPointer<vtkFloatArray>::New();
-            a->SetName(mesh.arrayNames[k].c_str());
-            a->SetNumberOfComponents(mesh.components[k]);
-            for (float v : mesh.arrays[k]) a->InsertNextValue(v);
-            pd->GetPointData()->AddArray(a);
-        }
-        auto w = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
-        w->SetFileName(path.c_str());
-        w->SetInputData(pd);
-        if (w->Write() != 1) throw OutputError(path + ": writing the mesh failed");
+    // === VTP
+    auto pd = vtkSmartPointer<vtkPolyData>::New();
+    auto pts = vtkSmartPointer<vtkPoints>::New();
+    for (const auto& p : mesh.vertices) pts->InsertNextPoint(p[0], p[1], p[2]);
+    auto cells = vtkSmartPointer<vtkCellArray>::New();
+    for (const auto& t : mesh.triangles) {
+        const vtkIdType ids[3] = {t[0], t[1], t[2]};
+        cells->InsertNextCell(3, ids);
     }
+    pd->SetPoints(pts);
+    pd->SetPolys(cells);
+    for (std::size_t k = 0; k < mesh.arrays.size(); ++k) {
+        auto a = vtkSmartPointer<vtkFloatArray>::New();
+        a->SetName(mesh.arrayNames[k].c_str());
+        a->SetNumberOfComponents(mesh.components[k]);
+        for (float v : mesh.arrays[k]) a->InsertNextValue(v);
+        pd->GetPointData()->AddArray(a);
+    }
+    auto w = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
+    w->SetFileName(path.c_str());
+    w->SetInputData(pd);
+    if (w->Write() != 1) throw OutputError(path + ": writing the mesh failed");
 }
 
 }  // namespace gpisvdb
