@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
                 po.preconditioner = pc;
                 po.maxIterations = 100000;
                 t0 = Clock::now();
-                g = greensFunction(band, L, Vec3d(0.5, 6, 1), po);
+                g = greensFunction(band, AssembledOperator(L), Vec3d(0.5, 6, 1), po);
                 t.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
             }
             std::sort(t.begin(), t.end());

@@ -1,5 +1,8 @@
 #pragma once
 // Small bands shared by the operator, solver, task and output tests (built once per test process).
+#include <Eigen/Geometry>
+#include <random>
+
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
@@ -24,6 +27,50 @@ inline const Band& sphereBand() {
 inline const Band& torusGapBand() {
     static const Band band = bandOf(cutAbove(torus(48, 16), 0.25), 1.0, 0.06);
     return band;
+}
+
+/// A band from analytic fields, no GPIS: a ball of `radius` voxels (index space) with h = `h`, a smooth
+/// positive μ, and T = μ R diag(1, a⁻², a⁻¹) Rᵀ of anisotropy `a` under a rotation that varies over the ball,
+/// so that stencils are wide (reach grows with a) and change from voxel to voxel.
+inline Band anisotropicBall(int radius, double h, double a, double maxAnisotropy = 100) {
+    std::vector<BandVoxel> voxels;
+    for (int x = -radius; x <= radius; ++x)
+        for (int y = -radius; y <= radius; ++y)
+            for (int z = -radius; z <= radius; ++z) {
+                if (x * x + y * y + z * z > radius * radius) continue;
+                const Vec3d p = h * Vec3d(x, y, z);
+                const double r = p.norm() / (h * radius);
+                BandVoxel v;
+                v.coord = openvdb::Coord(x, y, z);
+                v.mu = (1.5 - r * r) / h;
+                const Mat3d R = (Eigen::AngleAxisd(0.7 + 0.9 * r, Vec3d(1, 2, 3).normalized()) *
+                                 Eigen::AngleAxisd(0.4 * x / double(radius), Vec3d::UnitZ()))
+                                    .toRotationMatrix();
+                v.T = v.mu * R * Vec3d(1.0, 1.0 / (a * a), 1.0 / a).asDiagonal() * R.transpose();
+                v.mean = 0.5;
+                voxels.push_back(v);
+            }
+    return bandFromVoxels(std::move(voxels), h, maxAnisotropy).band;
+}
+
+inline std::vector<float> randomField(std::size_t n, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<float> U(-1, 1);
+    std::vector<float> u(n);
+    for (auto& v : u) v = U(rng);
+    return u;
+}
+
+inline double dot(const std::vector<float>& a, const std::vector<float>& b) {
+    double s = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) s += double(a[i]) * double(b[i]);
+    return s;
+}
+
+inline double maxAbs(const std::vector<float>& a) {
+    double m = 0;
+    for (float v : a) m = std::max(m, double(std::abs(v)));
+    return m;
 }
 
 }  // namespace gpisvdb::test

@@ -1,46 +1,59 @@
 #include <catch2/catch.hpp>
 #include <Eigen/SparseCholesky>
+#include <cmath>
 #include <tbb/global_control.h>
 
+#include "allocation_counter.h"
 #include "band_fixtures.h"
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/solve/pcg.h"
 
 using namespace gpisvdb;
 
+namespace {
 
-TEST_CASE("pcg: reaches the tolerance and agrees with a sparse Cholesky solve", "[pcg]") {
+Eigen::VectorXd asDouble(const std::vector<float>& v) {
+    return Eigen::Map<const Eigen::VectorXf>(v.data(), long(v.size())).cast<double>();
+}
+
+}  // namespace
+
+TEST_CASE("pcg: reaches the tolerance and agrees with a sparse Cholesky solve, matrix-free and assembled", "[pcg]") {
     const Band& band = test::torusGapBand();
-    const SparseMatrixF L = assembleLaplacian(band);
-    const std::vector<float> m = massDiagonal(band);
+    const SparseMatrixF A = assembleLaplacian(band);
+    const LaplacianOperator L(band);
     std::vector<float> b(band.size(), 0.0f);
-    b[band.size() / 3] = float(band.mu[band.size() / 3]);  // a Green's function right-hand side, M δ_y
-    std::vector<float> x;
-    const PcgResult r = solvePcg(L, b, x, {1e-6, 20000});
-    INFO(band.size() << " voxels, " << r.iterations << " iterations, residual " << r.relativeResidual);
-    REQUIRE(r.converged);
-    CHECK(r.relativeResidual <= 1e-6);
-    // The true residual, recomputed in double, is at the tolerance too (float storage costs ~1e-7).
-    const Eigen::SparseMatrix<double> Ld = L.cast<double>();
-    const Eigen::VectorXd xd = Eigen::Map<const Eigen::VectorXf>(x.data(), long(x.size())).cast<double>();
-    const Eigen::VectorXd bd = Eigen::Map<const Eigen::VectorXf>(b.data(), long(b.size())).cast<double>();
-    CHECK((bd - Ld * xd).norm() <= 1e-5 * bd.norm());
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Ld);
+    b[band.size() / 3] = float(band.mu[band.size() / 3]);
+    const Eigen::SparseMatrix<double> Ad = A.cast<double>();
+    const Eigen::VectorXd bd = asDouble(b);
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Ad);
     const Eigen::VectorXd exact = ldlt.solve(bd);
-    CHECK((xd - exact).norm() <= 1e-4 * exact.norm());
+    const AssembledOperator assembled(A);
+    for (const SymmetricOperator* op : {static_cast<const SymmetricOperator*>(&L), static_cast<const SymmetricOperator*>(&assembled)}) {
+        std::vector<float> x;
+        const PcgResult r = solvePcg(*op, b, x, {1e-6, 20000});
+        INFO(band.size() << " voxels, " << r.iterations << " iterations, residual " << r.relativeResidual);
+        REQUIRE(r.converged);
+        CHECK(r.relativeResidual <= 1e-6);
+        // The true residual, recomputed in double, is at the tolerance too (float storage costs ~1e-7).
+        const Eigen::VectorXd xd = asDouble(x);
+        CHECK((bd - Ad * xd).norm() <= 1e-5 * bd.norm());
+        CHECK((xd - exact).norm() <= 1e-4 * exact.norm());
+    }
 }
 
 TEST_CASE("pcg: incomplete Cholesky reaches the same solution in fewer iterations", "[pcg]") {
     const Band& band = test::torusGapBand();
-    const SparseMatrixF L = assembleLaplacian(band);
+    const SparseMatrixF A = assembleLaplacian(band);
     std::vector<float> b(band.size(), 0.0f);
     b[band.size() / 2] = 1.0f;
     std::vector<float> xj, xi;
     PcgOptions o;
     o.tolerance = 1e-7;
-    const PcgResult rj = solvePcg(L, b, xj, o);
+    const PcgResult rj = solvePcg(LaplacianOperator(band), b, xj, o);
     o.preconditioner = Preconditioner::IncompleteCholesky;
-    const PcgResult ri = solvePcg(L, b, xi, o);
+    const PcgResult ri = solvePcg(A, b, xi, o);
     REQUIRE(rj.converged);
     REQUIRE(ri.converged);
     CHECK(ri.iterations < rj.iterations);
@@ -49,9 +62,45 @@ TEST_CASE("pcg: incomplete Cholesky reaches the same solution in fewer iteration
     CHECK(std::sqrt(diff) <= 1e-4 * std::sqrt(norm));
 }
 
+TEST_CASE("pcg: a solve allocates nothing of size N beyond the solver's work vectors", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const std::size_t n = band.size();
+    const SparseMatrixF A = assembleLaplacian(band);
+    const LaplacianOperator L(band);
+    const AssembledOperator assembled(A);
+    std::vector<float> b(n, 0.0f), x(n, 0.0f);
+    b[n / 4] = 1.0f;
+    struct Case {
+        const char* name;
+        const SymmetricOperator* op;
+        Preconditioner pc;
+    };
+    for (const Case& c : {Case{"matrix-free, Jacobi", &L, Preconditioner::Jacobi},
+                          Case{"assembled, Jacobi", &assembled, Preconditioner::Jacobi},
+                          Case{"assembled, incomplete Cholesky", &assembled, Preconditioner::IncompleteCholesky}}) {
+        INFO(c.name);
+        PcgOptions o;
+        o.preconditioner = c.pc;
+        const PcgSolver solver(*c.op, o);  // work vectors and preconditioner: allocated here
+        std::fill(x.begin(), x.end(), 0.0f);
+        PcgResult r;
+        std::size_t large = 0;
+        {
+            const test::CountLargeAllocations counter(n * sizeof(float) / 4);  // anything of a quarter of N floats
+            r = solver.solve(b, x);
+            large = counter.count();
+        }
+        CHECK(r.converged);
+        CHECK(r.iterations > 10);
+        CHECK(large == 0);
+        // The work vectors themselves: four of N floats plus the preconditioner.
+        CHECK(solver.memoryBytes() >= 4 * n * sizeof(float));
+    }
+}
+
 TEST_CASE("pcg: identical iterates for 1 and 2 threads", "[pcg]") {
     const Band& band = test::torusGapBand();
-    const SparseMatrixF L = assembleLaplacian(band);
+    const LaplacianOperator L(band);
     std::vector<float> b(band.size(), 0.0f);
     for (std::size_t i = 0; i < b.size(); i += 97) b[i] = 1.0f;
     std::vector<float> x1, x2;
@@ -68,12 +117,30 @@ TEST_CASE("pcg: identical iterates for 1 and 2 threads", "[pcg]") {
     CHECK(x1 == x2);
 }
 
-TEST_CASE("pcg: a zero right-hand side gives zero; bad options are refused", "[pcg]") {
+TEST_CASE("pcg: reports an unconverged solve at the iteration cap", "[pcg]") {
     const Band& band = test::torusGapBand();
-    const SparseMatrixF L = assembleLaplacian(band);
+    std::vector<float> b(band.size(), 1.0f), x;
+    const PcgResult r = solvePcg(LaplacianOperator(band), b, x, {1e-10, 5});
+    CHECK(!r.converged);
+    CHECK(r.iterations == 5);
+    CHECK(r.relativeResidual > 1e-10);
+}
+
+TEST_CASE("pcg: a zero right-hand side gives zero; bad options and inputs are refused", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const LaplacianOperator L(band);
     std::vector<float> x(band.size(), 1.0f);
     const PcgResult r = solvePcg(L, std::vector<float>(band.size(), 0.0f), x);
     CHECK(r.converged);
     CHECK(*std::max_element(x.begin(), x.end()) == 0.0f);
-    CHECK_THROWS_AS(solvePcg(L, std::vector<float>(band.size(), 1.0f), x, {0.0, 10}), ParameterError);
+    const std::vector<float> ones(band.size(), 1.0f);
+    CHECK_THROWS_AS(solvePcg(L, ones, x, {0.0, 10}), ParameterError);
+    CHECK_THROWS_AS(solvePcg(L, ones, x, {-1.0, 10}), ParameterError);
+    CHECK_THROWS_AS(solvePcg(L, ones, x, {std::nan(""), 10}), ParameterError);
+    CHECK_THROWS_AS(solvePcg(L, ones, x, {1e-6, 0}), ParameterError);
+    CHECK_THROWS_AS(solvePcg(L, ones, x, {1e-6, 10, Preconditioner::IncompleteCholesky}), ParameterError);
+    CHECK_THROWS_AS(solvePcg(L, std::vector<float>(3, 1.0f), x), Error);
+    std::vector<float> bad = ones;
+    bad[7] = std::nanf("");
+    CHECK_THROWS_AS(solvePcg(L, bad, x), Error);
 }

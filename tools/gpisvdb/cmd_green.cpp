@@ -49,12 +49,19 @@ void addGreen(CLI::App& app, Action& action) {
             const Progress progress = makeProgress(a->flags.model.quiet);
             const BandJob job = runBand(data, a->flags, progress);
             const Band& band = job.result.band;
-            // === Operators, then L f = M δ_y
+            // === Operators (matrix-free L; assembled for the incomplete Cholesky factor), then L f = M δ_y
             const auto tOps = Clock::now();
-            const SparseMatrixF L = assembleLaplacian(band);
+            std::unique_ptr<SymmetricOperator> L;
+            SparseMatrixF assembled;
+            if (a->solver.preconditioner == Preconditioner::IncompleteCholesky) {
+                assembled = assembleLaplacian(band);
+                L = std::make_unique<AssembledOperator>(assembled);
+            } else {
+                L = std::make_unique<LaplacianOperator>(band);
+            }
             const double secondsOps = std::chrono::duration<double>(Clock::now() - tOps).count();
             const auto tSolve = Clock::now();
-            const GreenResult g = greensFunction(band, L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, progress);
+            const GreenResult g = greensFunction(band, *L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             if (!g.solver.converged)
                 throw Error("the PCG stopped at relative residual " + std::to_string(g.solver.relativeResidual) + " after " +

@@ -15,12 +15,6 @@ namespace {
 
 using openvdb::Coord;
 
-struct VoxelValue {
-    Coord c;
-    SurfaceDensity d;
-    double gamma = 0, stddev = 0;
-};
-
 void checkOptions(const BandOptions& o) {
     if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize)) throw ParameterError("--voxel-size must be finite and > 0");
     if (!(o.etaRelative > 0) || !std::isfinite(o.etaRelative)) throw ParameterError("--eta must be finite and > 0");
@@ -37,27 +31,27 @@ Coord voxelOf(const Vec3d& p, double h) {
 }
 
 /// Evaluates the GPIS and Kac–Rice at voxel centres h·c, in parallel.
-std::vector<VoxelValue> evaluateVoxels(const GpisModel& model, const std::vector<Coord>& coords, double h, double iso,
-                                 const QmcRule& rule, const Progress& progress) {
+std::vector<BandVoxel> evaluateVoxels(const GpisModel& model, const std::vector<Coord>& coords, double h, double iso,
+                                      const QmcRule& rule, const Progress& progress) {
     std::vector<Vec3d> xs(coords.size());
     for (std::size_t i = 0; i < coords.size(); ++i) xs[i] = h * Vec3d(coords[i].x(), coords[i].y(), coords[i].z());
     const std::vector<ValueGradient> z = model.evaluate(xs, progress);
-    std::vector<VoxelValue> out(coords.size());
+    std::vector<BandVoxel> out(coords.size());
     tbb::parallel_for(std::size_t(0), coords.size(), [&](std::size_t i) {
-        out[i].c = coords[i];
-        out[i].d = kacRice(z[i], iso, rule);
-        out[i].gamma = z[i].mean[0];
-        out[i].stddev = std::sqrt(std::max(0.0, z[i].cov(0, 0)));
+        const SurfaceDensity d = kacRice(z[i], iso, rule);
+        const double g = d.meanGradient.norm();
+        out[i] = {coords[i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
+                  g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero()};
     });
     return out;
 }
 
 /// η in absolute units: etaRelative × the median μ over the voxels holding samples.
-double absoluteEta(const std::vector<VoxelValue>& values, const std::vector<Coord>& sampleVoxels, double etaRel,
+double absoluteEta(const std::vector<BandVoxel>& values, const std::vector<Coord>& sampleVoxels, double etaRel,
                    BandStats& stats) {
     std::vector<double> mus;
     for (const auto& v : values)
-        if (std::binary_search(sampleVoxels.begin(), sampleVoxels.end(), v.c)) mus.push_back(v.d.mu);
+        if (std::binary_search(sampleVoxels.begin(), sampleVoxels.end(), v.coord)) mus.push_back(v.mu);
     std::nth_element(mus.begin(), mus.begin() + long(mus.size() / 2), mus.end());
     stats.medianSampleMu = mus.empty() ? 0.0 : mus[mus.size() / 2];
     if (!(stats.medianSampleMu > 0))
@@ -83,66 +77,12 @@ void checkBudget(std::size_t evaluated, const BandOptions& o, double h) {
                              ") or raise --max-memory");
 }
 
-/// Index tree in leaf order, channels, and Selling stencils from the accepted voxels.
-BandResult finish(std::vector<VoxelValue>&& accepted, const BandOptions& o, BandStats stats) {
-    BandResult r;
+BandResult finish(std::vector<BandVoxel>&& accepted, const BandOptions& o, const BandStats& stats) {
+    BandResult r = bandFromVoxels(std::move(accepted), o.voxelSize, o.maxAnisotropy);
+    const BandStats own = r.stats;
     r.stats = stats;
-    Band& b = r.band;
-    b.voxelSize = o.voxelSize;
-    b.index = openvdb::Int32Grid::create(-1);
-    b.index->setTransform(openvdb::math::Transform::createLinearTransform(o.voxelSize));
-    b.index->setName("index");
-    {
-        auto acc = b.index->getAccessor();
-        for (std::size_t i = 0; i < accepted.size(); ++i) acc.setValue(accepted[i].c, int(i));
-    }
-    // === Linear indices in leaf order (OpenVDB's value-on iteration order)
-    const std::size_t n = accepted.size();
-    std::vector<std::size_t> source;
-    source.reserve(n);
-    for (auto it = b.index->tree().beginValueOn(); it; ++it) {
-        source.push_back(std::size_t(*it));
-        it.setValue(int(source.size() - 1));
-    }
-    b.coord.resize(n);
-    b.mu.resize(n);
-    b.T.resize(n);
-    b.mean.resize(n);
-    b.stddev.resize(n);
-    b.normal.resize(n);
-    b.stencil.resize(n);
-    std::vector<int> regularised(n, 0);
-    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-        const VoxelValue& v = accepted[source[i]];
-        b.coord[i] = v.c;
-        b.mu[i] = float(v.d.mu);
-        const Mat3d& T = v.d.T;
-        b.T[i] = {float(T(0, 0)), float(T(1, 1)), float(T(2, 2)), float(T(0, 1)), float(T(0, 2)), float(T(1, 2))};
-        b.mean[i] = float(v.gamma);
-        b.stddev[i] = float(v.stddev);
-        const double g = v.d.meanGradient.norm();
-        const Vec3d nrm = g > 0 ? Vec3d(-v.d.meanGradient / g) : Vec3d::Zero();
-        b.normal[i] = openvdb::Vec3f(float(nrm.x()), float(nrm.y()), float(nrm.z()));
-        // === Selling stencil of T (regularised for anisotropy; DESIGN §3.5)
-        bool changed = false;
-        const Selling3 s = selling(regularise(T, o.maxAnisotropy, changed));
-        regularised[i] = changed;
-        VoxelStencil& st = b.stencil[i];
-        st.count = std::uint8_t(s.count);
-        st.width = std::uint8_t(std::min(255, s.width()));
-        for (int k = 0; k < s.count; ++k) {
-            st.weight[std::size_t(k)] = float(s.weight[std::size_t(k)]);
-            for (int d = 0; d < 3; ++d) {
-                const int e = s.offset[std::size_t(k)][d];
-                if (e < -127 || e > 127) throw Error("Selling offset beyond ±127 despite regularisation");
-                st.offset[std::size_t(k)][std::size_t(d)] = std::int8_t(e);
-            }
-        }
-    });
-    for (std::size_t i = 0; i < n; ++i) {
-        r.stats.regularised += std::size_t(regularised[i]);
-        r.stats.maxStencilL1 = std::max(r.stats.maxStencilL1, int(b.stencil[i].width));
-    }
+    r.stats.regularised = own.regularised;
+    r.stats.maxStencilL1 = own.maxStencilL1;
     return r;
 }
 
@@ -173,17 +113,88 @@ struct Rounds {
     Rounds(const GpisModel& m, const Samples& samples, const BandOptions& o, const Progress& p)
         : model(m), options(o), progress(p), rule(o.qmcSamples), sampleVox(sampleVoxels(samples, o.voxelSize)) {}
 
-    std::vector<VoxelValue> evaluate(const std::vector<Coord>& coords) {
+    std::vector<BandVoxel> evaluate(const std::vector<Coord>& coords) {
         progress.checkInterrupt();
         stats.evaluated += coords.size();
         checkBudget(stats.evaluated, options, options.voxelSize);
-        std::vector<VoxelValue> values = evaluateVoxels(model, coords, options.voxelSize, options.iso, rule, {});
+        std::vector<BandVoxel> values = evaluateVoxels(model, coords, options.voxelSize, options.iso, rule, {});
         if (stats.levels++ == 0) eta = absoluteEta(values, sampleVox, options.etaRelative, stats);
         return values;
     }
 };
 
 }  // namespace
+
+BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy) {
+    if (!(voxelSize > 0) || !std::isfinite(voxelSize)) throw ParameterError("--voxel-size must be finite and > 0");
+    if (!(maxAnisotropy >= 1)) throw ParameterError("--max-anisotropy must be >= 1");
+    BandResult r;
+    Band& b = r.band;
+    b.voxelSize = voxelSize;
+    b.index = openvdb::Int32Grid::create(-1);
+    try {
+        b.index->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
+    } catch (const openvdb::ArithmeticError&) {
+        // OpenVDB refuses linear transforms whose determinant h³ is within 1e-15 of zero (h ≲ 1e-5).
+        throw ParameterError("the voxel size " + std::to_string(voxelSize) +
+                             " is below what an OpenVDB transform can hold (about 1e-5 world units): rescale the "
+                             "input to larger units (e.g. millimetres instead of metres)");
+    }
+    b.index->setName("index");
+    {
+        auto acc = b.index->getAccessor();
+        for (std::size_t i = 0; i < voxels.size(); ++i) {
+            if (acc.isValueOn(voxels[i].coord)) throw Error("bandFromVoxels: a voxel is listed twice");
+            acc.setValue(voxels[i].coord, int(i));
+        }
+    }
+    // === Linear indices in leaf order (OpenVDB's value-on iteration order)
+    const std::size_t n = voxels.size();
+    std::vector<std::size_t> source;
+    source.reserve(n);
+    for (auto it = b.index->tree().beginValueOn(); it; ++it) {
+        source.push_back(std::size_t(*it));
+        it.setValue(int(source.size() - 1));
+    }
+    b.coord.resize(n);
+    b.mu.resize(n);
+    b.T.resize(n);
+    b.mean.resize(n);
+    b.stddev.resize(n);
+    b.normal.resize(n);
+    b.stencil.resize(n);
+    std::vector<int> regularised(n, 0);
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+        const BandVoxel& v = voxels[source[i]];
+        b.coord[i] = v.coord;
+        b.mu[i] = float(v.mu);
+        const Mat3d& T = v.T;
+        b.T[i] = {float(T(0, 0)), float(T(1, 1)), float(T(2, 2)), float(T(0, 1)), float(T(0, 2)), float(T(1, 2))};
+        b.mean[i] = float(v.mean);
+        b.stddev[i] = float(v.stddev);
+        b.normal[i] = openvdb::Vec3f(float(v.normal.x()), float(v.normal.y()), float(v.normal.z()));
+        // === Selling stencil of T (regularised for anisotropy; DESIGN §3.5)
+        bool changed = false;
+        const Selling3 s = selling(regularise(T, maxAnisotropy, changed));
+        regularised[i] = changed;
+        VoxelStencil& st = b.stencil[i];
+        st.count = std::uint8_t(s.count);
+        st.width = std::uint8_t(std::min(255, s.width()));
+        for (int k = 0; k < s.count; ++k) {
+            st.weight[std::size_t(k)] = float(s.weight[std::size_t(k)]);
+            for (int d = 0; d < 3; ++d) {
+                const int e = s.offset[std::size_t(k)][d];
+                if (e < -127 || e > 127) throw Error("Selling offset beyond ±127 despite regularisation");
+                st.offset[std::size_t(k)][std::size_t(d)] = std::int8_t(e);
+            }
+        }
+    });
+    for (std::size_t i = 0; i < n; ++i) {
+        r.stats.regularised += std::size_t(regularised[i]);
+        r.stats.maxStencilL1 = std::max(r.stats.maxStencilL1, int(b.stencil[i].width));
+    }
+    return r;
+}
 
 BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
     checkOptions(o);
@@ -198,15 +209,15 @@ BandResult buildBand(const GpisModel& model, const Samples& samples, const BandO
             if (!seen.isValueOn(c + d)) seen.setValueOn(c + d), frontier.push_back(c + d);
         if (!seen.isValueOn(c)) seen.setValueOn(c), frontier.push_back(c);
     }
-    std::vector<VoxelValue> accepted;
+    std::vector<BandVoxel> accepted;
     // === Breadth-first search: evaluate the frontier, keep μ > η, visit the kept voxels' new neighbours
     while (!frontier.empty()) {
-        std::vector<VoxelValue> values = rounds.evaluate(frontier);
+        std::vector<BandVoxel> values = rounds.evaluate(frontier);
         frontier.clear();
-        for (VoxelValue& v : values) {
-            if (!(v.d.mu > rounds.eta)) continue;
+        for (BandVoxel& v : values) {
+            if (!(v.mu > rounds.eta)) continue;
             for (const Coord& d : neighbourOffsets())
-                if (!seen.isValueOn(v.c + d)) seen.setValueOn(v.c + d), frontier.push_back(v.c + d);
+                if (!seen.isValueOn(v.coord + d)) seen.setValueOn(v.coord + d), frontier.push_back(v.coord + d);
             accepted.push_back(std::move(v));
         }
         progress.update("band", 1.0 - 1.0 / (1.0 + 0.1 * rounds.stats.levels));
@@ -221,18 +232,18 @@ BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOp
     openvdb::CoordBBox box;
     for (const Coord& c : rounds.sampleVox) box.expand(c);
     box.expand(1);
-    std::vector<VoxelValue> all;
+    std::vector<BandVoxel> all;
     openvdb::CoordBBox done;  // empty: nothing scanned yet
     // === Scan the box; grow it while band voxels touch its boundary (the scan must not cut the band)
     for (;;) {
         std::vector<Coord> coords;
         for (auto it = box.begin(); it; ++it)
             if (done.empty() || !done.isInside(*it)) coords.push_back(*it);
-        std::vector<VoxelValue> values = rounds.evaluate(coords);
+        std::vector<BandVoxel> values = rounds.evaluate(coords);
         bool touches = false;
-        for (VoxelValue& v : values) {
-            if (!(v.d.mu > rounds.eta)) continue;
-            const Coord& c = v.c;
+        for (BandVoxel& v : values) {
+            if (!(v.mu > rounds.eta)) continue;
+            const Coord& c = v.coord;
             touches = touches || c.x() == box.min().x() || c.y() == box.min().y() || c.z() == box.min().z() ||
                       c.x() == box.max().x() || c.y() == box.max().y() || c.z() == box.max().z();
             all.push_back(std::move(v));

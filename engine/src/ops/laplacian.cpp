@@ -3,11 +3,18 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "scatter_schedule.h"
+
 namespace gpisvdb {
 
 namespace {
 // Each voxel emits at most 6 terms × 2 directions × 4 entries.
 constexpr int kMaxTripletsPerVoxel = 48;
+
+openvdb::Coord offsetOf(const VoxelStencil& st, int k) {
+    const auto& e = st.offset[std::size_t(k)];
+    return openvdb::Coord(e[0], e[1], e[2]);
+}
 }  // namespace
 
 SparseMatrixF assembleLaplacian(const Band& band) {
@@ -24,7 +31,7 @@ SparseMatrixF assembleLaplacian(const Band& band) {
             const VoxelStencil& st = band.stencil[i];
             for (int k = 0; k < st.count; ++k) {
                 const float w = float(0.5 * h * double(st.weight[std::size_t(k)]));
-                const openvdb::Coord e(st.offset[std::size_t(k)][0], st.offset[std::size_t(k)][1], st.offset[std::size_t(k)][2]);
+                const openvdb::Coord e = offsetOf(st, k);
                 for (const openvdb::Coord& y : {band.coord[i] + e, band.coord[i] - e}) {
                     const int j = acc.getValue(y);
                     out[m++] = {int(i), int(i), w};
@@ -59,16 +66,71 @@ std::vector<float> massDiagonal(const Band& band) {
     return m;
 }
 
-void multiply(const SparseMatrixF& A, const std::vector<float>& u, std::vector<float>& out) {
-    out.resize(std::size_t(A.rows()));
-    const int* outer = A.outerIndexPtr();
-    const int* inner = A.innerIndexPtr();
-    const float* value = A.valuePtr();
-    tbb::parallel_for(tbb::blocked_range<int>(0, int(A.rows()), 1024), [&](const tbb::blocked_range<int>& r) {
-        for (int i = r.begin(); i != r.end(); ++i) {
-            double s = 0;
-            for (int p = outer[i]; p < outer[i + 1]; ++p) s += double(value[p]) * double(u[std::size_t(inner[p])]);
-            out[std::size_t(i)] = float(s);
+// === Matrix-free L
+
+struct LaplacianOperator::Schedule {
+    detail::ScatterSchedule scatter;
+};
+
+LaplacianOperator::LaplacianOperator(const Band& band)
+    : band_(band), schedule_(std::make_unique<Schedule>(Schedule{detail::makeScatterSchedule(band, detail::stencilReach(band))})) {}
+
+LaplacianOperator::~LaplacianOperator() = default;
+
+std::size_t LaplacianOperator::memoryBytes() const {
+    const auto& s = schedule_->scatter;
+    return sizeof(Schedule) + s.leafRanges.capacity() * sizeof(s.leafRanges[0]) + s.blockStart.capacity() * sizeof(std::uint32_t);
+}
+
+void LaplacianOperator::apply(const float* u, float* out) const {
+    const Band& band = band_;
+    const float halfH = float(0.5 * band.voxelSize);
+    std::fill(out, out + band.size(), 0.0f);
+    // Edge (i, j = i ± e_k) of voxel i's stencil, weight w = h λ_k(i)/2: adds w (u_i − u_j) to out_i and
+    // w (u_j − u_i) to out_j (j in the band) — the two halves of h (λ^e(i) + λ^e(j))/2 come from i's and j's
+    // own stencils. Outside the band u_j = 0, so out_i gains w u_i alone.
+    detail::runScheduled(schedule_->scatter, [&](std::uint32_t begin, std::uint32_t end) {
+        auto acc = band.index->getConstAccessor();
+        for (std::uint32_t i = begin; i != end; ++i) {
+            const VoxelStencil& st = band.stencil[i];
+            const float ui = u[i];
+            double own = 0;
+            for (int k = 0; k < st.count; ++k) {
+                const float w = halfH * st.weight[std::size_t(k)];
+                const openvdb::Coord e = offsetOf(st, k);
+                for (const openvdb::Coord& y : {band.coord[i] + e, band.coord[i] - e}) {
+                    const int j = acc.getValue(y);
+                    if (j < 0) {
+                        own += double(w) * double(ui);
+                    } else {
+                        const float d = u[j] - ui;
+                        own -= double(w) * double(d);
+                        out[j] += w * d;
+                    }
+                }
+            }
+            out[i] += float(own);
+        }
+    });
+}
+
+void LaplacianOperator::diagonal(float* out) const {
+    const Band& band = band_;
+    const float halfH = float(0.5 * band.voxelSize);
+    std::fill(out, out + band.size(), 0.0f);
+    detail::runScheduled(schedule_->scatter, [&](std::uint32_t begin, std::uint32_t end) {
+        auto acc = band.index->getConstAccessor();
+        for (std::uint32_t i = begin; i != end; ++i) {
+            const VoxelStencil& st = band.stencil[i];
+            for (int k = 0; k < st.count; ++k) {
+                const float w = halfH * st.weight[std::size_t(k)];
+                const openvdb::Coord e = offsetOf(st, k);
+                for (const openvdb::Coord& y : {band.coord[i] + e, band.coord[i] - e}) {
+                    out[i] += w;
+                    const int j = acc.getValue(y);
+                    if (j >= 0) out[j] += w;
+                }
+            }
         }
     });
 }

@@ -20,7 +20,7 @@ std::size_t nearestBandVoxel(const Band& band, const Vec3d& point) {
     return best;
 }
 
-GreenResult greensFunction(const Band& band, const SparseMatrixF& L, const Vec3d& source, const PcgOptions& options,
+GreenResult greensFunction(const Band& band, const SymmetricOperator& L, const Vec3d& source, const PcgOptions& options,
                            const Progress& progress) {
     GreenResult r;
     r.sourceIndex = nearestBandVoxel(band, source);

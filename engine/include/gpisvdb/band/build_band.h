@@ -3,6 +3,7 @@
 // box (the baseline it is measured and tested against). Both evaluate the GPIS, then μ and T by Kac–Rice, at
 // every voxel they visit, and keep the voxels with μ > η.
 #include <cstddef>
+#include <vector>
 
 #include "gpisvdb/band/band.h"
 #include "gpisvdb/core/progress.h"
@@ -33,6 +34,20 @@ struct BandResult {
     Band band;
     BandStats stats;
 };
+
+/// One voxel's fields, as a builder computes them; also the way to make a band from analytic fields.
+struct BandVoxel {
+    openvdb::Coord coord;            ///< index space; the centre is h·coord
+    double mu = 0;                   ///< μ, world units⁻¹
+    Mat3d T = Mat3d::Zero();         ///< T, world units⁻¹ (symmetric positive semi-definite)
+    double mean = 0;                 ///< γ
+    double stddev = 0;               ///< √c₀₀
+    Vec3d normal = Vec3d::Zero();    ///< outward unit normal
+};
+
+/// The band over `voxels` (distinct coordinates): the index tree in leaf order, the channels, and the Selling
+/// stencil of T regularised to anisotropy ≤ maxAnisotropy. Fills stats.regularised and stats.maxStencilL1.
+BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy);
 
 BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& options,
                      const Progress& progress = {});

@@ -2,24 +2,41 @@
 // The adaptive-stencil Laplacian L and the mass M of a band (paper Eq. 22, 24; DESIGN §3.7).
 //   E_h(u) = h^(d−2) Σ_x Σ_k λ_k(x) [(u(x+he_k) − u(x))² + (u(x−he_k) − u(x))²] / 2,   uᵀ L u = E_h(u),
 // so each edge (x, x+he) carries h (λ^e(x) + λ^e(x+he))/2 (d = 3), and an edge leaving the band adds to the
-// diagonal only (u = 0 outside: homogeneous Dirichlet). M = h³ diag(μ). L is assembled once, symmetric by
-// construction, in compressed rows of float values (the PCG's storage) and applied in parallel.
-#include <Eigen/SparseCore>
+// diagonal only (u = 0 outside: homogeneous Dirichlet). M = h³ diag(μ), so uᵀ M v → ∫ u v dμ; Δ_φ = −M⁻¹ L.
+// Two forms of L: matrix-free over the band's stencils (LaplacianOperator, no storage of its own) and
+// assembled in compressed rows of float values (assembleLaplacian, for factorisations and cross-checks).
 #include <vector>
 
 #include "gpisvdb/band/band.h"
+#include "gpisvdb/ops/linear_operator.h"
 
 namespace gpisvdb {
 
-using SparseMatrixF = Eigen::SparseMatrix<float, Eigen::RowMajor, int>;
-
-/// L over the band's voxels (linear index order). Deterministic for any thread count.
+/// L over the band's voxels (linear index order), symmetric by construction. Deterministic for any thread count.
 SparseMatrixF assembleLaplacian(const Band& band);
 
 /// M's diagonal, h³ μ (world units², so uᵀ M v → ∫ u v dμ).
 std::vector<float> massDiagonal(const Band& band);
 
-/// out = A u, parallel over rows, each row summed in double in a fixed order.
-void multiply(const SparseMatrixF& A, const std::vector<float>& u, std::vector<float>& out);
+/// L applied straight from the band's Selling stencils, each edge added to both of its ends. Holds a reference
+/// to the band (which must outlive it) and a schedule of a few bytes per leaf; neighbours are looked up through
+/// the band's index tree at every application. Scatters run colour by colour (engine/src/ops/scatter_schedule.h),
+/// so the result does not depend on the thread count.
+class LaplacianOperator final : public SymmetricOperator {
+public:
+    explicit LaplacianOperator(const Band& band);
+    ~LaplacianOperator() override;
+    std::size_t size() const override { return band_.size(); }
+    void apply(const float* u, float* out) const override;
+    void diagonal(float* out) const override;
+    using SymmetricOperator::apply;
+    /// Bytes held by the operator itself (the schedule), beyond the band.
+    std::size_t memoryBytes() const;
+
+private:
+    struct Schedule;
+    const Band& band_;
+    std::unique_ptr<Schedule> schedule_;
+};
 
 }  // namespace gpisvdb

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "gpisvdb/band/band.h"
+#include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/solve/pcg.h"
 
 namespace gpisvdb {
@@ -19,8 +20,9 @@ struct GreenResult {
 /// Band voxel nearest to a world-space point (ties: lowest linear index). Throws on an empty band.
 std::size_t nearestBandVoxel(const Band& band, const Vec3d& point);
 
-/// Solves L f = e_y with the PCG; `L` is the band's assembled Laplacian.
-GreenResult greensFunction(const Band& band, const SparseMatrixF& L, const Vec3d& source,
+/// Solves L f = e_y with the PCG; `L` is the band's Laplacian (LaplacianOperator, or AssembledOperator over
+/// assembleLaplacian for the incomplete Cholesky preconditioner).
+GreenResult greensFunction(const Band& band, const SymmetricOperator& L, const Vec3d& source,
                            const PcgOptions& options = {}, const Progress& progress = {});
 
 }  // namespace gpisvdb

@@ -1,0 +1,49 @@
+#pragma once
+// A symmetric linear operator on band arrays (one float per band voxel, by linear index): what the PCG needs.
+// Implementations: the matrix-free Laplacian (laplacian.h), the naive first-order Laplacian (first_order.h), and
+// any assembled matrix (AssembledOperator).
+#include <cstddef>
+#include <Eigen/SparseCore>
+#include <vector>
+
+namespace gpisvdb {
+
+using SparseMatrixF = Eigen::SparseMatrix<float, Eigen::RowMajor, int>;
+
+class SymmetricOperator {
+public:
+    virtual ~SymmetricOperator() = default;
+    /// N, the number of unknowns.
+    virtual std::size_t size() const = 0;
+    /// out = A u (both of length N, not aliased). Deterministic for any thread count.
+    virtual void apply(const float* u, float* out) const = 0;
+    /// out = diag(A) (length N).
+    virtual void diagonal(float* out) const = 0;
+    /// The matrix itself when the operator holds one (for factorisations), else nullptr.
+    virtual const SparseMatrixF* matrix() const { return nullptr; }
+
+    void apply(const std::vector<float>& u, std::vector<float>& out) const {
+        out.resize(size());
+        apply(u.data(), out.data());
+    }
+};
+
+/// out = A u for any compressed-row matrix, parallel over rows, each row summed in double in a fixed order.
+void multiply(const SparseMatrixF& A, const float* u, float* out);
+void multiply(const SparseMatrixF& A, const std::vector<float>& u, std::vector<float>& out);
+
+/// An assembled symmetric matrix as an operator (the matrix is referenced, not copied).
+class AssembledOperator final : public SymmetricOperator {
+public:
+    explicit AssembledOperator(const SparseMatrixF& A) : A_(A) {}
+    std::size_t size() const override { return std::size_t(A_.rows()); }
+    void apply(const float* u, float* out) const override { multiply(A_, u, out); }
+    void diagonal(float* out) const override;
+    const SparseMatrixF* matrix() const override { return &A_; }
+    using SymmetricOperator::apply;
+
+private:
+    const SparseMatrixF& A_;
+};
+
+}  // namespace gpisvdb
