@@ -41,6 +41,33 @@ SurfaceMesh meanSurface(const openvdb::FloatGrid& mean, double iso) {
     return m;
 }
 
+double surfaceArea(const SurfaceMesh& mesh) {
+    double a = 0;
+    for (const auto& t : mesh.triangles) {
+        const openvdb::Vec3d p0(mesh.vertices[std::size_t(t[0])]), p1(mesh.vertices[std::size_t(t[1])]),
+            p2(mesh.vertices[std::size_t(t[2])]);
+        a += 0.5 * (p1 - p0).cross(p2 - p0).length();
+    }
+    return a;
+}
+
+double dirichletEnergy(const SurfaceMesh& mesh, const std::vector<double>& f) {
+    if (f.size() != mesh.vertices.size()) throw Error("dirichletEnergy: one value per vertex is needed");
+    double e = 0;
+    for (const auto& t : mesh.triangles) {
+        const openvdb::Vec3d p0(mesh.vertices[std::size_t(t[0])]), p1(mesh.vertices[std::size_t(t[1])]),
+            p2(mesh.vertices[std::size_t(t[2])]);
+        const openvdb::Vec3d n = (p1 - p0).cross(p2 - p0);
+        const double twiceArea = n.length();
+        if (!(twiceArea > 0)) continue;
+        // ∇f = n̂ × g / 2A with g = Σ_i f_i e_i, e_i the edge opposite vertex i (in the plane, so |n̂ × g| = |g|):
+        // A |∇f|² = |g|² / (2 · 2A).
+        const openvdb::Vec3d g = f[std::size_t(t[0])] * (p2 - p1) + f[std::size_t(t[1])] * (p0 - p2) + f[std::size_t(t[2])] * (p1 - p0);
+        e += g.lengthSqr() / (2.0 * twiceArea);
+    }
+    return e;
+}
+
 void sampleAtVertices(SurfaceMesh& mesh, const openvdb::GridBase& grid) {
     std::vector<float> values;
     int comps = 0;

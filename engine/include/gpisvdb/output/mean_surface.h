@@ -20,6 +20,13 @@ struct SurfaceMesh {
 /// appears where the band ends.
 SurfaceMesh meanSurface(const openvdb::FloatGrid& mean, double iso);
 
+/// Σ of the triangles' areas, world units².
+double surfaceArea(const SurfaceMesh& mesh);
+
+/// The Dirichlet energy Σ_t A_t |∇f_t|² of the piecewise-linear interpolant of vertex values f (the cotan
+/// Laplacian's energy fᵀ L_cotan f), world units⁰ × f².
+double dirichletEnergy(const SurfaceMesh& mesh, const std::vector<double>& f);
+
 /// Adds `grid` (a float or vec3 grid) trilinearly sampled at the mesh's vertices, as an array named after it.
 void sampleAtVertices(SurfaceMesh& mesh, const openvdb::GridBase& grid);
 
