@@ -1,64 +1,269 @@
-// Preconditioners for the Green's function solve (operators issue, in progress): Jacobi against incomplete
-// Cholesky on the bunny band, time to tolerance 1e-6 (median of 3), iterations, operator assembly time.
-// Usage: bench_solve [--out bench/results/solve.json] [--data DIR]
+// Operators and solvers (operators issue): paper Sec. 9 table on the bunny (band + operators, CG), our PCG
+// against Eigen's ConjugateGradient and OpenVDB's math::pcg::solve on the same system and tolerance, operator
+// applications per second, Jacobi against incomplete Cholesky, bytes per band voxel.
+// Usage: bench_solve [--part table|solvers|all] [--out bench/results/solve.json] [--data DIR] [--repeat R]
+#include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <openvdb/math/ConjGradient.h>
+#include <tbb/global_control.h>
 
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/stencil/resolution.h"
 #include "gpisvdb/tasks/green.h"
 
 using namespace gpisvdb;
 using Clock = std::chrono::steady_clock;
 
+namespace {
+
+double seconds(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+int gRepeat = 5;
+
+template <class F>
+double median(F&& f) {
+    std::vector<double> t;
+    for (int r = 0; r < gRepeat; ++r) {
+        const auto t0 = Clock::now();
+        f();
+        t.push_back(seconds(t0));
+    }
+    std::sort(t.begin(), t.end());
+    return t[t.size() / 2];
+}
+
+/// ‖b − A x‖₂ / ‖b‖₂ recomputed in double.
+double trueResidual(const SparseMatrixF& A, const std::vector<float>& b, const std::vector<float>& x) {
+    const Eigen::VectorXd xd = Eigen::Map<const Eigen::VectorXf>(x.data(), long(x.size())).cast<double>();
+    const Eigen::VectorXd bd = Eigen::Map<const Eigen::VectorXf>(b.data(), long(b.size())).cast<double>();
+    return (bd - A.cast<double>() * xd).norm() / bd.norm();
+}
+
+struct Problem {
+    std::string name;
+    double sigma = 0;
+    Band band;
+    BandStats stats;
+    double secondsModel = 0, secondsResolution = 0, secondsBand = 0;
+    Vec3d source;
+};
+
+Problem bunnyBand(const std::string& data, double sigma, double hScale) {
+    Problem p;
+    p.name = "bunny";
+    p.sigma = sigma;
+    auto t = Clock::now();
+    const Samples s = makeSamples(readInput(data + "/bunny.obj"), {sigma}).samples;
+    const BarnesHutGpis model(s, 0.4 * s.lengthScale);
+    p.secondsModel = seconds(t);
+    t = Clock::now();
+    const Resolution res = chooseResolution(model, s);
+    p.secondsResolution = seconds(t);
+    BandOptions o;
+    o.voxelSize = hScale * res.hStar;
+    t = Clock::now();
+    BandResult br = buildBand(model, s, o);
+    p.secondsBand = seconds(t);
+    p.band = std::move(br.band);
+    p.stats = br.stats;
+    p.source = s.position[s.size() / 2];
+    return p;
+}
+
+// === OpenVDB's PCG on its own stencil matrix, with a Jacobi preconditioner of ours (same arithmetic as our Jacobi)
+constexpr openvdb::math::pcg::SizeType kStencil = 96;
+using VdbMatrix = openvdb::math::pcg::SparseStencilMatrix<float, kStencil>;
+
+struct VdbJacobi final : openvdb::math::pcg::Preconditioner<float> {
+    std::vector<float> inv;
+    explicit VdbJacobi(const VdbMatrix& A, const SparseMatrixF& L) : Preconditioner<float>(A), inv(std::size_t(L.rows())) {
+        for (int i = 0; i < L.rows(); ++i) inv[std::size_t(i)] = 1.0f / L.coeff(i, i);
+    }
+    void apply(const openvdb::math::pcg::Vector<float>& r, openvdb::math::pcg::Vector<float>& z) override {
+        for (std::size_t i = 0; i < inv.size(); ++i) z[i] = inv[i] * r[i];
+    }
+};
+
+/// OpenVDB's fixed-width stencil matrix holding L; null when a row has more than kStencil entries.
+std::unique_ptr<VdbMatrix> vdbMatrix(const SparseMatrixF& L) {
+    for (int i = 0; i < L.rows(); ++i)
+        if (L.outerIndexPtr()[i + 1] - L.outerIndexPtr()[i] > int(kStencil)) return nullptr;
+    auto A = std::make_unique<VdbMatrix>(openvdb::math::pcg::SizeType(L.rows()));
+    for (int i = 0; i < L.rows(); ++i) {
+        for (SparseMatrixF::InnerIterator it(L, i); it; ++it) A->setValue(openvdb::math::pcg::SizeType(i), openvdb::math::pcg::SizeType(it.col()), it.value());
+    }
+    return A;
+}
+
+nlohmann::json solvers(const Problem& p, double tolerance) {
+    const Band& band = p.band;
+    const std::size_t n = band.size();
+    nlohmann::json row = {{"input", p.name}, {"sigma_rel", p.sigma}, {"h", band.voxelSize}, {"voxels", n}, {"tolerance", tolerance}};
+    auto t = Clock::now();
+    const SparseMatrixF L = assembleLaplacian(band);
+    row["assembly_s"] = seconds(t);
+    t = Clock::now();
+    const LaplacianOperator free(band);
+    row["matrix_free_setup_s"] = seconds(t);
+    const AssembledOperator assembled(L);
+    std::vector<float> b(n, 0.0f);
+    const std::size_t y = nearestBandVoxel(band, p.source);
+    b[y] = 1.0f;  // the Green's function right-hand side M δ_y = e_y
+
+    // === Operator applications per second, and bytes per band voxel
+    std::vector<float> u(n, 1.0f), out(n);
+    for (std::size_t i = 0; i < n; ++i) u[i] = float(std::sin(0.001 * double(i)));
+    const auto vdbA = vdbMatrix(L);
+    const double tFree = median([&] { free.apply(u.data(), out.data()); });
+    const double tAssembled = median([&] { assembled.apply(u.data(), out.data()); });
+    row["applications_per_s"] = {{"matrix_free", 1 / tFree}, {"assembled_csr", 1 / tAssembled}};
+    if (vdbA) {
+        openvdb::math::pcg::Vector<float> vu(n), vout(n);
+        for (std::size_t i = 0; i < n; ++i) vu[i] = u[i];
+        row["applications_per_s"]["openvdb_stencil_matrix"] = 1 / median([&] { vdbA->vectorMultiply(vu, vout); });
+    }
+    int longest = 0;
+    for (int i = 0; i < L.rows(); ++i) longest = std::max(longest, L.outerIndexPtr()[i + 1] - L.outerIndexPtr()[i]);
+    row["longest_row"] = longest;
+    row["nonzeros_per_row"] = double(L.nonZeros()) / double(n);
+    const PcgSolver jacobi(free);
+    row["bytes_per_voxel"] = {{"band", band.bytesPerVoxel()},
+                              {"assembled_L", double(L.nonZeros() * 8 + (L.rows() + 1) * 4) / double(n)},
+                              {"matrix_free_L", double(free.memoryBytes()) / double(n)},
+                              {"pcg_jacobi_work", double(jacobi.memoryBytes()) / double(n)}};
+
+    // === Solvers to the same tolerance; the true residual recomputed in double afterwards
+    auto ours = [&](const SymmetricOperator& A, Preconditioner pc, int threads) {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+        PcgOptions o;
+        o.tolerance = tolerance;
+        o.maxIterations = 100000;
+        o.preconditioner = pc;
+        std::vector<float> x;
+        PcgResult r;
+        const double s = median([&] {
+            x.clear();
+            r = PcgSolver(A, o).solve(b, x);
+        });
+        return nlohmann::json{{"median_s", s}, {"iterations", r.iterations}, {"true_relative_residual", trueResidual(L, b, x)}};
+    };
+    row["ours_matrix_free_jacobi_2t"] = ours(free, Preconditioner::Jacobi, 2);
+    row["ours_matrix_free_jacobi_1t"] = ours(free, Preconditioner::Jacobi, 1);
+    row["ours_assembled_jacobi_2t"] = ours(assembled, Preconditioner::Jacobi, 2);
+    row["ours_assembled_jacobi_1t"] = ours(assembled, Preconditioner::Jacobi, 1);
+    row["ours_assembled_ic_2t"] = ours(assembled, Preconditioner::IncompleteCholesky, 2);
+    {
+        Eigen::ConjugateGradient<SparseMatrixF, Eigen::Lower | Eigen::Upper, Eigen::DiagonalPreconditioner<float>> cg;
+        cg.setTolerance(float(tolerance));
+        cg.setMaxIterations(100000);
+        Eigen::VectorXf x;
+        const Eigen::Map<const Eigen::VectorXf> bm(b.data(), long(n));
+        const double s = median([&] {
+            cg.compute(L);
+            x = cg.solve(bm);
+        });
+        const std::vector<float> xs(x.data(), x.data() + n);
+        row["eigen_cg_jacobi"] = {{"median_s", s}, {"iterations", cg.iterations()}, {"true_relative_residual", trueResidual(L, b, xs)}};
+    }
+    if (vdbA) {
+        openvdb::math::pcg::State term = openvdb::math::pcg::terminationDefaults<float>();
+        term.iterations = 100000;
+        term.relativeError = tolerance;
+        term.absoluteError = 0;
+        openvdb::math::pcg::Vector<float> vb(n), vx(n);
+        for (std::size_t i = 0; i < n; ++i) vb[i] = b[i];
+        openvdb::math::pcg::State st;
+        const double s = median([&] {
+            vx.fill(0.0f);
+            VdbJacobi P(*vdbA, L);
+            st = openvdb::math::pcg::solve(*vdbA, vb, vx, P, static_cast<const openvdb::math::pcg::State&>(term));
+        });
+        const std::vector<float> xs(vx.data(), vx.data() + n);
+        row["openvdb_pcg_jacobi"] = {{"median_s", s}, {"iterations", st.iterations}, {"success", st.success},
+                                     {"true_relative_residual", trueResidual(L, b, xs)}};
+    }
+    // Ratios of solve times (> 1: ours is faster), our default (matrix-free, Jacobi, 2 threads) against the rest.
+    const double oursS = row["ours_matrix_free_jacobi_2t"]["median_s"].get<double>();
+    auto ratio = [&](const char* key) { return row[key]["median_s"].get<double>() / oursS; };
+    row["speedup_of_ours_matrix_free"] = {{"over_eigen_cg", ratio("eigen_cg_jacobi")},
+                                          {"over_ours_assembled", ratio("ours_assembled_jacobi_2t")},
+                                          {"over_ours_ic", ratio("ours_assembled_ic_2t")}};
+    if (vdbA) row["speedup_of_ours_matrix_free"]["over_openvdb_pcg"] = ratio("openvdb_pcg_jacobi");
+    const double oursAssembled = row["ours_assembled_jacobi_2t"]["median_s"].get<double>();
+    row["speedup_of_ours_assembled"] = {{"over_eigen_cg", row["eigen_cg_jacobi"]["median_s"].get<double>() / oursAssembled}};
+    if (vdbA) row["speedup_of_ours_assembled"]["over_openvdb_pcg"] = row["openvdb_pcg_jacobi"]["median_s"].get<double>() / oursAssembled;
+    return row;
+}
+
+/// Paper Sec. 9: band + operators and CG time for the Green's function on the bunny at three σ, h = h*.
+nlohmann::json secNineRow(const Problem& p, double tolerance) {
+    const Band& band = p.band;
+    auto t = Clock::now();
+    const LaplacianOperator L(band);
+    const double ops = seconds(t);
+    t = Clock::now();
+    PcgOptions o;
+    o.tolerance = tolerance;
+    const GreenResult g = greensFunction(band, L, p.source, o);
+    const double cg = seconds(t);
+    const auto bb = band.bbox();
+    return {{"input", p.name}, {"sigma_rel", p.sigma}, {"h", band.voxelSize}, {"bbox_voxels", {bb.dim().x(), bb.dim().y(), bb.dim().z()}},
+            {"voxels", band.size()}, {"evaluated_voxels", p.stats.evaluated}, {"model_s", p.secondsModel},
+            {"resolution_s", p.secondsResolution}, {"band_s", p.secondsBand}, {"operators_s", ops},
+            {"band_and_operators_s", p.secondsModel + p.secondsResolution + p.secondsBand + ops},
+            {"cg_s", cg}, {"cg_iterations", g.solver.iterations}, {"cg_relative_residual", g.solver.relativeResidual}};
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
-    std::string out = "bench/results/solve.json", data = "../shared/data";
+    std::string part = "all", out = "bench/results/solve.json", data = "../shared/data";
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
-        if (a == "--out" && i + 1 < argc) out = argv[++i];
+        if (a == "--part" && i + 1 < argc) part = argv[++i];
+        else if (a == "--out" && i + 1 < argc) out = argv[++i];
         else if (a == "--data" && i + 1 < argc) data = argv[++i];
+        else if (a == "--repeat" && i + 1 < argc) gRepeat = std::max(1, std::stoi(argv[++i]));
         else {
-            std::cerr << "usage: bench_solve [--out FILE.json] [--data DIR]\n";
+            std::cerr << "usage: bench_solve [--part table|solvers|all] [--out FILE.json] [--data DIR] [--repeat R]\n";
             return 2;
         }
     }
-    nlohmann::json report;
-    for (const auto& [sigma, h] : std::vector<std::pair<double, double>>{{2.0, 0.2}, {1.0, 0.1}}) {
-        const Samples s = makeSamples(readInput(data + "/bunny.obj"), {sigma}).samples;
-        const BarnesHutGpis model(s, 0.4 * s.lengthScale);
-        BandOptions o;
-        o.voxelSize = h;
-        const Band band = buildBand(model, s, o).band;
-        auto t0 = Clock::now();
-        const SparseMatrixF L = assembleLaplacian(band);
-        const double assembly = std::chrono::duration<double>(Clock::now() - t0).count();
-        nlohmann::json row = {{"input", "bunny"}, {"sigma_rel", sigma}, {"h", h}, {"voxels", band.size()},
-                              {"nonzeros_per_row", double(L.nonZeros()) / double(band.size())},
-                              {"assembly_s", assembly}};
-        for (auto pc : {Preconditioner::Jacobi, Preconditioner::IncompleteCholesky}) {
-            std::vector<double> t;
-            GreenResult g;
-            for (int r = 0; r < 3; ++r) {
-                PcgOptions po;
-                po.preconditioner = pc;
-                po.maxIterations = 100000;
-                t0 = Clock::now();
-                g = greensFunction(band, AssembledOperator(L), Vec3d(0.5, 6, 1), po);
-                t.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
-            }
-            std::sort(t.begin(), t.end());
-            const std::string k = pc == Preconditioner::Jacobi ? "jacobi" : "incomplete_cholesky";
-            row[k] = {{"iterations", g.solver.iterations}, {"relative_residual", g.solver.relativeResidual},
-                      {"median_s", t[1]}};
-        }
-        row["jacobi_speedup_over_ic"] = row["incomplete_cholesky"]["median_s"].get<double>() / row["jacobi"]["median_s"].get<double>();
-        std::cout << row.dump() << std::endl;
-        report["preconditioners"].push_back(row);
+    if (part != "table" && part != "solvers" && part != "all") {
+        std::cerr << "bench_solve: unknown --part '" << part << "'\n";
+        return 2;
     }
+    openvdb::initialize();
+    nlohmann::json report;
+    {
+        std::ifstream in(out);
+        if (in) try { in >> report; } catch (...) { report = nlohmann::json::object(); }
+    }
+    report["machine"] = "2-core x86-64 (project machine), 2 threads unless a key says 1t";
+    if (part == "table" || part == "all") {
+        report["sec9_table"] = nlohmann::json::array();
+        for (double sigma : {0.25, 0.5, 1.0}) {
+            const Problem p = bunnyBand(data, sigma, 1.0);
+            const nlohmann::json row = secNineRow(p, 1e-6);
+            std::cout << row.dump() << std::endl;
+            report["sec9_table"].push_back(row);
+        }
+    }
+    if (part == "solvers" || part == "all") {
+        report["solvers"] = nlohmann::json::array();
+        for (auto [sigma, hScale] : {std::pair{1.0, 1.0}, std::pair{1.0, 0.5}, std::pair{0.25, 1.0}}) {
+            const Problem p = bunnyBand(data, sigma, hScale);
+            const nlohmann::json row = solvers(p, 1e-6);
+            std::cout << row.dump() << std::endl;
+            report["solvers"].push_back(row);
+        }
+    }
+    report.erase("preconditioners");
     std::ofstream(out) << report.dump(2) << "\n";
     std::cout << "wrote " << out << "\n";
 }

@@ -63,9 +63,13 @@ void addGreen(CLI::App& app, Action& action) {
             const auto tSolve = Clock::now();
             const GreenResult g = greensFunction(band, *L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
-            if (!g.solver.converged)
-                throw Error("the PCG stopped at relative residual " + std::to_string(g.solver.relativeResidual) + " after " +
-                            std::to_string(g.solver.iterations) + " iterations: raise --max-iterations or --tolerance");
+            if (!g.solver.converged) {
+                const std::string at = "the PCG stopped at relative residual " + std::to_string(g.solver.relativeResidual) +
+                                       " after " + std::to_string(g.solver.iterations) + " iterations";
+                if (g.solver.iterations >= a->solver.maxIterations) throw Error(at + ": raise --max-iterations");
+                throw Error(at + ", as close as float storage gets: use --tolerance " +
+                            std::to_string(2 * g.solver.relativeResidual) + " or larger");
+            }
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             const openvdb::Coord y = band.coord[g.sourceIndex];
             meta.insertMeta("green_source", openvdb::Vec3DMetadata(openvdb::Vec3d(a->source[0], a->source[1], a->source[2])));
@@ -78,7 +82,7 @@ void addGreen(CLI::App& app, Action& action) {
             if (reportOut) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["solver"] = {{"method", a->solver.preconditioner == Preconditioner::Jacobi ? "PCG, Jacobi" : "PCG, incomplete Cholesky"},
-                                    {"iterations", g.solver.iterations},
+                                    {"iterations", g.solver.iterations}, {"restarts", g.solver.restarts},
                                     {"relative_residual", g.solver.relativeResidual}, {"tolerance", a->solver.tolerance}};
                 report["green"] = {{"source", a->source}, {"source_voxel", {y.x(), y.y(), y.z()}},
                                    {"source_index", g.sourceIndex}};

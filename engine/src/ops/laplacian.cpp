@@ -70,47 +70,68 @@ std::vector<float> massDiagonal(const Band& band) {
 
 struct LaplacianOperator::Schedule {
     detail::ScatterSchedule scatter;
+    std::vector<std::int32_t> neighbour;  // voxel i, term k, sign s (+, −): [12 i + 2 k + s], −1 outside the band
+    mutable std::vector<double> sum;      // per-voxel sums in double: one rounding per output, like a CSR row
 };
 
-LaplacianOperator::LaplacianOperator(const Band& band)
-    : band_(band), schedule_(std::make_unique<Schedule>(Schedule{detail::makeScatterSchedule(band, detail::stencilReach(band))})) {}
+LaplacianOperator::LaplacianOperator(const Band& band) : band_(band), schedule_(std::make_unique<Schedule>()) {
+    schedule_->scatter = detail::makeScatterSchedule(band, detail::stencilReach(band));
+    std::vector<std::int32_t>& nb = schedule_->neighbour;
+    nb.assign(12 * band.size(), -1);
+    schedule_->sum.assign(band.size(), 0.0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, band.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+        auto acc = band.index->getConstAccessor();
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const VoxelStencil& st = band.stencil[i];
+            for (int k = 0; k < st.count; ++k) {
+                const openvdb::Coord e = offsetOf(st, k);
+                nb[12 * i + 2 * std::size_t(k)] = acc.getValue(band.coord[i] + e);
+                nb[12 * i + 2 * std::size_t(k) + 1] = acc.getValue(band.coord[i] - e);
+            }
+        }
+    });
+}
 
 LaplacianOperator::~LaplacianOperator() = default;
 
 std::size_t LaplacianOperator::memoryBytes() const {
     const auto& s = schedule_->scatter;
-    return sizeof(Schedule) + s.leafRanges.capacity() * sizeof(s.leafRanges[0]) + s.blockStart.capacity() * sizeof(std::uint32_t);
+    return sizeof(Schedule) + s.leafRanges.capacity() * sizeof(s.leafRanges[0]) + s.blockStart.capacity() * sizeof(std::uint32_t) +
+           schedule_->neighbour.capacity() * sizeof(std::int32_t) + schedule_->sum.capacity() * sizeof(double);
 }
 
 void LaplacianOperator::apply(const float* u, float* out) const {
     const Band& band = band_;
-    const float halfH = float(0.5 * band.voxelSize);
-    std::fill(out, out + band.size(), 0.0f);
+    const double halfH = 0.5 * band.voxelSize;
+    double* sum = schedule_->sum.data();
+    std::fill(sum, sum + band.size(), 0.0);
     // Edge (i, j = i ± e_k) of voxel i's stencil, weight w = h λ_k(i)/2: adds w (u_i − u_j) to out_i and
     // w (u_j − u_i) to out_j (j in the band) — the two halves of h (λ^e(i) + λ^e(j))/2 come from i's and j's
     // own stencils. Outside the band u_j = 0, so out_i gains w u_i alone.
+    const std::int32_t* nb = schedule_->neighbour.data();
     detail::runScheduled(schedule_->scatter, [&](std::uint32_t begin, std::uint32_t end) {
-        auto acc = band.index->getConstAccessor();
         for (std::uint32_t i = begin; i != end; ++i) {
             const VoxelStencil& st = band.stencil[i];
-            const float ui = u[i];
+            const double ui = u[i];
             double own = 0;
             for (int k = 0; k < st.count; ++k) {
-                const float w = halfH * st.weight[std::size_t(k)];
-                const openvdb::Coord e = offsetOf(st, k);
-                for (const openvdb::Coord& y : {band.coord[i] + e, band.coord[i] - e}) {
-                    const int j = acc.getValue(y);
+                const double w = halfH * double(st.weight[std::size_t(k)]);
+                for (int s = 0; s < 2; ++s) {
+                    const std::int32_t j = nb[12 * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
                     if (j < 0) {
-                        own += double(w) * double(ui);
+                        own += w * ui;
                     } else {
-                        const float d = u[j] - ui;
-                        own -= double(w) * double(d);
-                        out[j] += w * d;
+                        const double d = w * (double(u[j]) - ui);
+                        own -= d;
+                        sum[j] += d;
                     }
                 }
             }
-            out[i] += float(own);
+            sum[i] += own;
         }
+    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, band.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = float(sum[i]);
     });
 }
 
@@ -118,16 +139,15 @@ void LaplacianOperator::diagonal(float* out) const {
     const Band& band = band_;
     const float halfH = float(0.5 * band.voxelSize);
     std::fill(out, out + band.size(), 0.0f);
+    const std::int32_t* nb = schedule_->neighbour.data();
     detail::runScheduled(schedule_->scatter, [&](std::uint32_t begin, std::uint32_t end) {
-        auto acc = band.index->getConstAccessor();
         for (std::uint32_t i = begin; i != end; ++i) {
             const VoxelStencil& st = band.stencil[i];
             for (int k = 0; k < st.count; ++k) {
                 const float w = halfH * st.weight[std::size_t(k)];
-                const openvdb::Coord e = offsetOf(st, k);
-                for (const openvdb::Coord& y : {band.coord[i] + e, band.coord[i] - e}) {
+                for (int s = 0; s < 2; ++s) {
                     out[i] += w;
-                    const int j = acc.getValue(y);
+                    const std::int32_t j = nb[12 * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
                     if (j >= 0) out[j] += w;
                 }
             }

@@ -2,6 +2,7 @@
 
 #include <Eigen/IterativeLinearSolvers>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -15,6 +16,7 @@ namespace gpisvdb {
 namespace {
 
 constexpr std::size_t kGrain = 4096;
+constexpr int kMaxRestarts = 8;  // restarts from the true residual before a solve is reported as stagnating
 
 /// Σ a_i b_i in double; the deterministic reduction splits the same way for any thread count.
 double dot(const std::vector<float>& a, const std::vector<float>& b) {
@@ -112,37 +114,54 @@ PcgResult PcgSolver::solve(const std::vector<float>& b, std::vector<float>& x, c
         res.converged = true;
         return res;
     }
-    // === r = b − A x, z = P⁻¹ r, p = z
-    m.A.apply(x.data(), Ap.data());
-    forEach(n, [&](std::size_t i) { r[i] = b[i] - Ap[i]; });
-    m.precondition();
-    std::copy(z.begin(), z.end(), p.begin());
-    double rz = dot(r, z);
-    res.relativeResidual = std::sqrt(dot(r, r)) / bNorm;
-    // === CG iterations
-    while (res.relativeResidual > m.options.tolerance && res.iterations < m.options.maxIterations) {
-        if (res.iterations % 16 == 0) {
-            progress.checkInterrupt();
-            progress.update("solve", std::min(1.0, std::log(res.relativeResidual) / std::log(m.options.tolerance)));
-        }
-        m.A.apply(p.data(), Ap.data());
-        const double pAp = dot(p, Ap);
-        if (!(pAp > 0)) throw Error("PCG: the operator is not positive definite (pᵀAp = " + std::to_string(pAp) + ")");
-        const double alpha = rz / pAp;
-        forEach(n, [&](std::size_t i) {
-            x[i] = float(double(x[i]) + alpha * double(p[i]));
-            r[i] = float(double(r[i]) - alpha * double(Ap[i]));
-        });
+    // === r = b − A x, z = P⁻¹ r, p = z (also a restart, from the true residual)
+    double rz = 0;
+    auto restart = [&] {
+        m.A.apply(x.data(), Ap.data());
+        forEach(n, [&](std::size_t i) { r[i] = float(double(b[i]) - double(Ap[i])); });
         m.precondition();
-        const double rzNext = dot(r, z);
-        const double beta = rzNext / rz;
-        rz = rzNext;
-        forEach(n, [&](std::size_t i) { p[i] = float(double(z[i]) + beta * double(p[i])); });
-        ++res.iterations;
+        std::copy(z.begin(), z.end(), p.begin());
+        rz = dot(r, z);
         res.relativeResidual = std::sqrt(dot(r, r)) / bNorm;
+    };
+    restart();
+    int restarts = 0;
+    double lastTrue = std::numeric_limits<double>::infinity();
+    for (;;) {
+        // === CG iterations on the recursively updated residual
+        while (res.relativeResidual > m.options.tolerance && res.iterations < m.options.maxIterations) {
+            if (res.iterations % 16 == 0) {
+                progress.checkInterrupt();
+                progress.update("solve", std::min(1.0, std::log(res.relativeResidual) / std::log(m.options.tolerance)));
+            }
+            m.A.apply(p.data(), Ap.data());
+            const double pAp = dot(p, Ap);
+            if (!(pAp > 0)) throw Error("PCG: the operator is not positive definite (pᵀAp = " + std::to_string(pAp) + ")");
+            const double alpha = rz / pAp;
+            forEach(n, [&](std::size_t i) {
+                x[i] = float(double(x[i]) + alpha * double(p[i]));
+                r[i] = float(double(r[i]) - alpha * double(Ap[i]));
+            });
+            m.precondition();
+            const double rzNext = dot(r, z);
+            const double beta = rzNext / rz;
+            rz = rzNext;
+            forEach(n, [&](std::size_t i) { p[i] = float(double(z[i]) + beta * double(p[i])); });
+            ++res.iterations;
+            res.relativeResidual = std::sqrt(dot(r, r)) / bNorm;
+        }
+        // === The true residual: in float the recursive one drifts below it (measured 4–8× on the bunny), so
+        // restart from the true one while it misses the tolerance and the restarts still gain.
+        restart();
+        const bool met = res.relativeResidual <= m.options.tolerance;
+        if (met || res.iterations >= m.options.maxIterations || ++restarts > kMaxRestarts ||
+            res.relativeResidual > 0.5 * lastTrue)
+            break;
+        lastTrue = res.relativeResidual;
     }
     progress.update("solve", 1.0);
     res.converged = res.relativeResidual <= m.options.tolerance;
+    res.restarts = restarts;
     return res;
 }
 

@@ -2,8 +2,10 @@
 // Preconditioned conjugate gradients for a symmetric positive definite operator (DESIGN §3.8): float storage,
 // double reductions, working in place on the caller's arrays. The solver allocates its work vectors once
 // (r, z, p, A p and the preconditioner: 5 floats per unknown for Jacobi, plus the incomplete factor for IC), so
-// repeated solves — and every iteration — allocate nothing of size N. Stops when the recursively updated
-// residual satisfies ‖b − A x‖ ≤ tolerance·‖b‖, or after maxIterations. Deterministic for any thread count.
+// repeated solves — and every iteration — allocate nothing of size N. Iterates until the recursively updated
+// residual satisfies ‖r‖ ≤ tolerance·‖b‖, then checks the true residual b − A x: in float storage the two drift
+// apart, so while the true one misses the tolerance the iteration restarts from it (at most 8 times, and only while
+// each restart halves it). Stops there or after maxIterations. Deterministic for any thread count.
 #include <memory>
 #include <vector>
 
@@ -26,8 +28,9 @@ struct PcgOptions {
 
 struct PcgResult {
     int iterations = 0;
-    double relativeResidual = 0;  ///< of the recursively updated residual at exit
-    bool converged = false;
+    double relativeResidual = 0;  ///< true relative residual ‖b − A x‖ / ‖b‖ at exit (reductions in double)
+    int restarts = 0;             ///< restarts from the true residual
+    bool converged = false;       ///< relativeResidual ≤ tolerance
 };
 
 /// A PCG bound to one operator: the preconditioner is set up and the work vectors allocated at construction.
