@@ -177,7 +177,7 @@ nlohmann::json solvers(const Problem& p, double tolerance) {
         term.absoluteError = 0;
         openvdb::math::pcg::Vector<float> vb(n), vx(n);
         for (std::size_t i = 0; i < n; ++i) vb[i] = b[i];
-        openvdb::math::pcg::State st;
+        openvdb::math::pcg::State st{};
         const double s = median([&] {
             vx.fill(0.0f);
             VdbJacobi P(*vdbA, L);
