@@ -1,7 +1,8 @@
 // Paper Fig. 6 (top): the expected Dirichlet energy fᵀ L f on a unit-sphere soup as σ falls, against the
 // Dirichlet energy of the smooth sphere (8π/3 for f = x₁) and against the cotan energy of f on the GPIS mean
 // surface (the paper's reference), for the adaptive-stencil L and for the naive K = M D_φ G_φ.
-// Usage: validate_energy [--level L] [--sigma S1,S2,...] [--h-over-wmu F | --h-over-hstar F] [--eta E] [--out FILE.json]
+// Usage: validate_energy [--level L] [--sigma S1,S2,...] [--h-over-hstar F (default 1) | --h-over-wmu F] [--eta E]
+//                        [--out FILE.json]
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -62,14 +63,14 @@ std::vector<double> parseList(const std::string& s) {
 int main(int argc, char** argv) {
     int level = 3;
     std::vector<double> sigmas{1, 0.5, 0.25, 0.1};
-    double hOverWmu = 1.5, hOverHstar = 0, eta = 1e-6;
+    double hOverWmu = 0, hOverHstar = 1, eta = 1e-6;  // default: the paper's resolution h = h* (Eq. 25)
     std::string out = "bench/results/energy.json";
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--level" && i + 1 < argc) level = std::stoi(argv[++i]);
         else if (a == "--sigma" && i + 1 < argc) sigmas = parseList(argv[++i]);
-        else if (a == "--h-over-wmu" && i + 1 < argc) hOverWmu = std::stod(argv[++i]);
-        else if (a == "--h-over-hstar" && i + 1 < argc) hOverHstar = std::stod(argv[++i]);
+        else if (a == "--h-over-wmu" && i + 1 < argc) hOverWmu = std::stod(argv[++i]), hOverHstar = 0;
+        else if (a == "--h-over-hstar" && i + 1 < argc) hOverHstar = std::stod(argv[++i]), hOverWmu = 0;
         else if (a == "--eta" && i + 1 < argc) eta = std::stod(argv[++i]);
         else if (a == "--out" && i + 1 < argc) out = argv[++i];
         else {
@@ -77,6 +78,10 @@ int main(int argc, char** argv) {
                          "[--out FILE.json]\n";
             return 2;
         }
+    }
+    if (!(hOverHstar > 0) && !(hOverWmu > 0)) {
+        std::cerr << "validate_energy: the voxel-size factor must be > 0\n";
+        return 2;
     }
     const TriangleSoup soup = icosphere(level);
     nlohmann::json rows = nlohmann::json::array();
