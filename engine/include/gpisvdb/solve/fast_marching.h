@@ -1,0 +1,36 @@
+#pragma once
+// Hamiltonian fast marching (Mirebeau–Portegies 2019; paper Eq. 28; DESIGN §3.8) for the generalised eikonal
+// equation ‖∇U‖_T = √(∇U·T∇U) = 1 on a band, with T given by the band's Selling stencils T = Σ λ_k e_k e_kᵀ.
+// At each voxel x the upwind scheme
+//     Σ_k λ_k max(0, U(x) − U(x − h e_k), U(x) − U(x + h e_k))² = h²
+// is solved in acceptance order (Dijkstra-like): a voxel's value is recomputed from its accepted stencil
+// neighbours whenever one of them is accepted (found through a reverse-stencil table). Voxels outside the band are
+// never accepted; a voxel whose whole stencil leaves the band, or that no front reaches, keeps U = +∞ and is
+// counted. U is computed in double. Single-threaded, so the result does not depend on the thread count.
+// With T = c I, U is the Euclidean distance over √c; with a constant T, U(x) → √((x − s)ᵀ T⁻¹ (x − s)).
+#include <cstddef>
+#include <vector>
+
+#include "gpisvdb/band/band.h"
+#include "gpisvdb/core/progress.h"
+
+namespace gpisvdb {
+
+struct FastMarchingOptions {
+    bool stopAtTargets = true;  ///< stop once every target is accepted (when targets are given)
+};
+
+struct FastMarchingResult {
+    std::vector<double> distance;  ///< U by linear index, world units × T^(−1/2); +∞ where not reached
+    std::size_t accepted = 0;      ///< voxels accepted (their U is final)
+    std::size_t unreached = 0;     ///< voxels left at +∞ (never reached, or not reached before an early stop)
+    bool stoppedEarly = false;     ///< the march ended at the targets, before the band was exhausted
+};
+
+/// U from the given source voxels (linear indices, U = 0 there). Throws ParameterError on an empty source list or
+/// an index outside the band.
+FastMarchingResult fastMarching(const Band& band, const std::vector<std::size_t>& sources,
+                                const std::vector<std::size_t>& targets = {}, const FastMarchingOptions& options = {},
+                                const Progress& progress = {});
+
+}  // namespace gpisvdb
