@@ -3,6 +3,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "../band/stencil_neighbours.h"
 #include "scatter_schedule.h"
 
 namespace gpisvdb {
@@ -76,20 +77,8 @@ struct LaplacianOperator::Schedule {
 
 LaplacianOperator::LaplacianOperator(const Band& band) : band_(band), schedule_(std::make_unique<Schedule>()) {
     schedule_->scatter = detail::makeScatterSchedule(band, detail::stencilReach(band));
-    std::vector<std::int32_t>& nb = schedule_->neighbour;
-    nb.assign(12 * band.size(), -1);
+    schedule_->neighbour = detail::stencilNeighbours(band);
     schedule_->sum.assign(band.size(), 0.0);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, band.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-        auto acc = band.index->getConstAccessor();
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            const VoxelStencil& st = band.stencil[i];
-            for (int k = 0; k < st.count; ++k) {
-                const openvdb::Coord e = offsetOf(st, k);
-                nb[12 * i + 2 * std::size_t(k)] = acc.getValue(band.coord[i] + e);
-                nb[12 * i + 2 * std::size_t(k) + 1] = acc.getValue(band.coord[i] - e);
-            }
-        }
-    });
 }
 
 LaplacianOperator::~LaplacianOperator() = default;
@@ -117,7 +106,7 @@ void LaplacianOperator::apply(const float* u, float* out) const {
             for (int k = 0; k < st.count; ++k) {
                 const double w = halfH * double(st.weight[std::size_t(k)]);
                 for (int s = 0; s < 2; ++s) {
-                    const std::int32_t j = nb[12 * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
+                    const std::int32_t j = nb[detail::kStencilSlots * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
                     if (j < 0) {
                         own += w * ui;
                     } else {
@@ -147,7 +136,7 @@ void LaplacianOperator::diagonal(float* out) const {
                 const float w = halfH * st.weight[std::size_t(k)];
                 for (int s = 0; s < 2; ++s) {
                     out[i] += w;
-                    const std::int32_t j = nb[12 * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
+                    const std::int32_t j = nb[detail::kStencilSlots * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
                     if (j >= 0) out[j] += w;
                 }
             }

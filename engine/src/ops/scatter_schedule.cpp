@@ -4,8 +4,6 @@
 #include <cstdlib>
 #include <tuple>
 
-#include "gpisvdb/core/errors.h"
-
 namespace gpisvdb::detail {
 
 int stencilReach(const Band& band) {

@@ -4,9 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <queue>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
+#include "../band/stencil_neighbours.h"
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb {
@@ -14,7 +13,7 @@ namespace gpisvdb {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr int kSlots = 12;  // 6 terms × 2 signs
+constexpr int kSlots = detail::kStencilSlots;
 
 /// The stencil neighbours (term k, sign s at [12 i + 2 k + s], −1 outside the band) and their reverse table.
 struct Neighbours {
@@ -26,19 +25,7 @@ struct Neighbours {
 Neighbours neighbours(const Band& band) {
     const std::size_t n = band.size();
     Neighbours nb;
-    nb.forward.assign(kSlots * n, -1);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-        auto acc = band.index->getConstAccessor();
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            const VoxelStencil& st = band.stencil[i];
-            for (int k = 0; k < st.count; ++k) {
-                const auto& e = st.offset[std::size_t(k)];
-                const openvdb::Coord d(e[0], e[1], e[2]);
-                nb.forward[kSlots * i + 2 * std::size_t(k)] = acc.getValue(band.coord[i] + d);
-                nb.forward[kSlots * i + 2 * std::size_t(k) + 1] = acc.getValue(band.coord[i] - d);
-            }
-        }
-    });
+    nb.forward = detail::stencilNeighbours(band);
     // === Reverse table by counting sort (deterministic: sources in index order)
     nb.reverseStart.assign(n + 1, 0);
     for (std::int32_t j : nb.forward)
@@ -59,8 +46,11 @@ Neighbours neighbours(const Band& band) {
 /// Solves Σ_k λ_k max(0, U − m_k)² = h² for U, m_k the smaller accepted neighbour value of term k (+∞ if none).
 double localSolve(const double* lambda, const double* m, int count, double h2) {
     int order[6];
-    for (int k = 0; k < count; ++k) order[k] = k;
-    std::sort(order, order + count, [&](int a, int b) { return m[a] < m[b]; });
+    for (int k = 0; k < count; ++k) {  // insertion sort by m: at most 6 terms
+        int q = k;
+        for (; q > 0 && m[order[q - 1]] > m[k]; --q) order[q] = order[q - 1];
+        order[q] = k;
+    }
     double a = 0, b = 0, c = -h2, u = kInf;
     for (int q = 0; q < count; ++q) {
         const int k = order[q];
