@@ -82,10 +82,10 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     const double estimate = area * thickness / (h * h * h);
     if (estimate * kBuildBytesPerVoxel > job.maxMemory) {
         const double suggest = h * std::cbrt(estimate * kBuildBytesPerVoxel / job.maxMemory) * 1.1;
-        throw ParameterError("the band would need about " + std::to_string(estimate) + " voxels (" +
-                             std::to_string(estimate * kBuildBytesPerVoxel / 1e9) + " GB) at voxel size " +
-                             std::to_string(h) + ", more than --max-memory allows: use --voxel-size " +
-                             std::to_string(suggest) + " or larger");
+        throw ParameterError("the band would need about " + numberText(estimate) + " voxels (" +
+                             numberText(estimate * kBuildBytesPerVoxel / 1e9) + " GB) at voxel size " +
+                             numberText(h) + ", more than --max-memory allows: use --voxel-size " +
+                             numberText(suggest) + " or larger");
     }
     job.options.maxVoxels = std::size_t(job.maxMemory / kBuildBytesPerVoxel);
     const auto tBand = Clock::now();

@@ -136,7 +136,7 @@ BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, doubl
         b.index->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
     } catch (const openvdb::ArithmeticError&) {
         // OpenVDB refuses linear transforms whose determinant h³ is within 1e-15 of zero (h ≲ 1e-5).
-        throw ParameterError("the voxel size " + std::to_string(voxelSize) +
+        throw ParameterError("the voxel size " + numberText(voxelSize) +
                              " is below what an OpenVDB transform can hold (about 1e-5 world units): rescale the "
                              "input to larger units (e.g. millimetres instead of metres)");
     }

@@ -1,5 +1,6 @@
 #pragma once
 // Typed exceptions. The library never exits; the command line catches these and prints one line.
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -21,6 +22,14 @@ struct ParameterError : Error {
 struct OutputError : Error {
     using Error::Error;
 };
+/// A number for a message: 4 significant digits, any magnitude (1e-07, 0.01389, 6.37e+22), where std::to_string
+/// would print 0.000000.
+inline std::string numberText(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4g", v);
+    return buf;
+}
+
 /// The caller's interrupter asked to stop.
 struct Cancelled : Error {
     Cancelled() : Error("interrupted") {}
