@@ -6,6 +6,10 @@
 #include <fstream>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+#include <openvdb/openvdb.h>
+
+#include "gpisvdb/output/mean_surface.h"
 #include "helpers.h"
 
 namespace fs = std::filesystem;
@@ -128,6 +132,12 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"band " + bunny + " -o " + vdb + " --sigma 0", "--sigma"},
         {"green " + bunny + " --source 0,nan,0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "--source"},
         {"green " + bunny + " --source 0,6,0 -o " + vdb + " --tolerance 0", "--tolerance"},
+        {"geodesic " + bunny + " --source 0,nan,0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "--source"},
+        {"geodesic " + bunny + " --source 0,6,0 --target 1,inf,0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "--target"},
+        {"geodesic " + bunny + " --source 0,6,0 -o " + vdb + " --paths " + temp("p.json"), "--paths needs"},
+        {"geodesic " + bunny + " --source 0,6,0 -o " + vdb + " --stop-at-targets", "--stop-at-targets"},
+        {"geodesic " + bunny + " --source 0,6,0 --target 1,6,0 -o " + vdb + " --paths " + temp("p.stl"), "path extension"},
+        {"geodesic " + bunny + " --source 0,6,0,1 -o " + vdb, "X,Y,Z"},
     };
     for (const Case& c : cases) {
         fs::remove(out);
@@ -147,6 +157,8 @@ TEST_CASE("cli: usage errors exit 2; --help and --version exit 0", "[cli]") {
     CHECK(run("evaluate x.obj --at p.xyz -o o.csv --no-such-flag").code == 2);
     CHECK(run("--help").code == 0);
     CHECK(run("evaluate --help").code == 0);
+    CHECK(run("geodesic --help").code == 0);
+    CHECK(run("geodesic x.obj -o o.vdb").code == 2);  // --source is required
     CHECK(run("--version").out.find("gpisvdb") != std::string::npos);
 }
 
@@ -212,4 +224,70 @@ TEST_CASE("cli: green writes the band grids and 'green', with solver fields in t
     std::stringstream ts;
     ts << t.rdbuf();
     CHECK_THAT(ts.str(), Catch::Contains("Name: green"));
+}
+
+TEST_CASE("cli: geodesic writes 'geodesic' and a bunny path between far points that keeps near the mean surface", "[cli]") {
+    const std::string vdb = temp("geo.vdb"), json = temp("geo.json"), paths = temp("geo_paths.json"), obj = temp("geo_paths.obj"),
+                      vtp = temp("geo_paths.vtp");
+    const std::string common = "geodesic " + gpisvdb::test::dataPath("bunny.obj") +
+                               " --source 0.5,6,1 --target -2,9,0 --target 3,4,-2 --sigma 0.5 --voxel-size 0.15 --quiet";
+    const Run r = run(common + " -o " + vdb + " --report " + json + " --paths " + paths);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
+    CHECK(report["geodesic"]["unreached"] == 0);
+    CHECK(report["geodesic"]["reached"] == report["band"]["voxels"]);
+    CHECK(report["timings_s"].contains("solve"));
+    REQUIRE(report["geodesic"]["paths"].size() == 2);
+
+    // === The paths: from the target voxel to the source voxel, U decreasing, no shorter than the chord
+    openvdb::initialize();
+    openvdb::io::File file(vdb);
+    file.open();
+    const auto mean = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("mean"));
+    const auto geodesic = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("geodesic"));
+    file.close();
+    const double h = mean->voxelSize()[0];
+    const gpisvdb::SurfaceMesh surface = gpisvdb::meanSurface(*mean, 0.5);
+    const nlohmann::json p = nlohmann::json::parse(std::ifstream(paths));
+    REQUIRE(p["paths"].size() == 2);
+    for (const auto& path : p["paths"]) {
+        CHECK(path["reached_source"] == true);
+        const auto& points = path["points"];
+        const auto& u = path["geodesic"];
+        REQUIRE(points.size() > 10);
+        for (std::size_t i = 1; i < u.size(); ++i) CHECK(u[i].get<double>() < u[i - 1].get<double>());
+        const openvdb::Vec3d a(points.front()[0], points.front()[1], points.front()[2]),
+            b(points.back()[0], points.back()[1], points.back()[2]);
+        CHECK(path["length"].get<double>() >= (a - b).length());
+        // every point within two voxels of the mean surface (distance to its nearest vertex), most within one
+        std::size_t within = 0;
+        for (const auto& x : points) {
+            const openvdb::Vec3s q(x[0].get<float>(), x[1].get<float>(), x[2].get<float>());
+            double best = 1e300;
+            for (const auto& v : surface.vertices) best = std::min(best, double((v - q).lengthSqr()));
+            CHECK(std::sqrt(best) < 2 * h);
+            if (std::sqrt(best) < h) ++within;
+        }
+        CHECK(double(within) > 0.9 * double(points.size()));
+    }
+    // U is 0 at the source voxel; every band voxel was reached, so every one is active
+    const auto& s = report["geodesic"]["sources"][0]["voxel"];
+    CHECK(geodesic->tree().getValue(openvdb::Coord(s[0].get<int>(), s[1].get<int>(), s[2].get<int>())) == 0);
+    CHECK(geodesic->activeVoxelCount() == report["band"]["voxels"].get<openvdb::Index64>());
+
+    // === The same paths as OBJ and VTP
+    REQUIRE(run(common + " -o " + vdb + " --paths " + obj).code == 0);
+    std::ifstream o(obj);
+    std::stringstream os;
+    os << o.rdbuf();
+    const std::string objText = os.str();
+    CHECK(std::count(objText.begin(), objText.end(), '\n') > 20);
+    CHECK_THAT(objText, Catch::Contains("\nl "));
+    REQUIRE(run(common + " -o " + vdb + " --paths " + vtp).code == 0);
+    std::ifstream v(vtp);
+    std::stringstream vs;
+    vs << v.rdbuf();
+    CHECK_THAT(vs.str(), Catch::Contains("<Lines>"));
+    CHECK_THAT(vs.str(), Catch::Contains("Name=\"geodesic\""));
 }

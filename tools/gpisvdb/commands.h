@@ -11,6 +11,7 @@ void addEvaluate(CLI::App& app, Action& action);
 void addDemo(CLI::App& app, Action& action);
 void addBand(CLI::App& app, Action& action);
 void addGreen(CLI::App& app, Action& action);
+void addGeodesic(CLI::App& app, Action& action);
 void addMesh(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

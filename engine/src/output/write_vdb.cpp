@@ -1,5 +1,7 @@
 #include "gpisvdb/output/write_vdb.h"
 
+#include <cmath>
+
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb {
@@ -7,8 +9,9 @@ namespace gpisvdb {
 namespace {
 
 template <class GridT, class Value>
-typename GridT::Ptr channel(const Band& band, const std::string& name, const Value& value) {
-    auto grid = GridT::create(typename GridT::ValueType(0));
+typename GridT::Ptr channel(const Band& band, const std::string& name, const Value& value,
+                            typename GridT::ValueType background = typename GridT::ValueType(0)) {
+    auto grid = GridT::create(background);
     grid->setName(name);
     grid->setTransform(band.index->transform().copy());
     auto acc = grid->getAccessor();
@@ -44,7 +47,11 @@ void writeBandVdb(const Band& band, const std::string& path, const openvdb::Meta
     grids.push_back(channel<openvdb::FloatGrid>(band, "stencil_width", [&](std::size_t i) { return float(band.stencil[i].width); }));
     for (const NamedChannel& c : extra) {
         if (!c.values || c.values->size() != band.size()) throw Error("channel '" + c.name + "' does not match the band");
-        grids.push_back(channel<openvdb::FloatGrid>(band, c.name, [&](std::size_t i) { return (*c.values)[i]; }));
+        auto grid = channel<openvdb::FloatGrid>(band, c.name, [&](std::size_t i) { return (*c.values)[i]; }, c.background);
+        auto acc = grid->getAccessor();
+        for (std::size_t i = 0; i < band.size(); ++i)
+            if (!std::isfinite((*c.values)[i])) acc.setValueOff(band.coord[i], c.background);
+        grids.push_back(grid);
     }
     for (auto& g : grids) g->setSaveFloatAsHalf(false);
     try {

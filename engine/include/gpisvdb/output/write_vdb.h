@@ -11,10 +11,12 @@
 
 namespace gpisvdb {
 
-/// A task's scalar result over the band, by linear index.
+/// A task's scalar result over the band, by linear index. Non-finite values (voxels a task did not reach) are
+/// left inactive at the grid's background: VFX tools and samplers never meet inf or NaN.
 struct NamedChannel {
     std::string name;
     const std::vector<float>* values = nullptr;
+    float background = 0;  ///< value of inactive voxels (outside the band, or non-finite)
 };
 
 /// Grids: mu (fog volume), mean, stddev, T_diag (xx, yy, zz), T_offdiag (xy, xz, yz), normal (outward unit),

@@ -1,0 +1,144 @@
+// Geodesic distance (geodesic issue): voxels accepted per second by our Hamiltonian fast marching against the
+// number of band voxels N, on constant-metric boxes of anisotropy 10 (100³, 150³, 200³), a box whose metric
+// varies smoothly, and bunny bands; the stencil tables' build time and bytes per voxel; path backtracking time.
+// Usage: bench_geodesic [--part boxes|bunny|all] [--out bench/results/geodesic.json] [--data DIR] [--repeat R]
+//        [--sizes 100,150,200]
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "gpisvdb/band/build_band.h"
+#include "gpisvdb/input/read_input.h"
+#include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/stencil/resolution.h"
+#include "gpisvdb/tasks/geodesic.h"
+#include "gpisvdb/tasks/green.h"
+
+using namespace gpisvdb;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double seconds(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+int gRepeat = 3;
+
+template <class F>
+double median(F&& f) {
+    std::vector<double> t;
+    for (int r = 0; r < gRepeat; ++r) {
+        const auto t0 = Clock::now();
+        f();
+        t.push_back(seconds(t0));
+    }
+    std::sort(t.begin(), t.end());
+    return t[t.size() / 2];
+}
+
+/// n³ voxels over [−1, 1]³ with T = R diag(1, 1/a², 1/a) Rᵀ (anisotropy a); `varying`: R turns with position.
+Band box(int n, double a, bool varying) {
+    const double h = 2.0 / n;
+    std::vector<BandVoxel> voxels;
+    voxels.reserve(std::size_t(n) * n * n);
+    const Vec3d axis = Vec3d(1, 2, 3).normalized();
+    const Mat3d fixed = Eigen::AngleAxisd(0.6, axis).toRotationMatrix();
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+            for (int k = 0; k < n; ++k) {
+                BandVoxel v;
+                v.coord = openvdb::Coord(i - n / 2, j - n / 2, k - n / 2);
+                const Vec3d x = h * Vec3d(v.coord.x(), v.coord.y(), v.coord.z());
+                const Mat3d R = varying ? Mat3d(Eigen::AngleAxisd(1.5 * x.x() + x.y() * x.y(), axis) *
+                                                Eigen::AngleAxisd(2.0 * x.z(), Vec3d::UnitX()))
+                                        : fixed;
+                v.mu = 1;
+                v.T = R * Vec3d(1.0, 1.0 / (a * a), 1.0 / a).asDiagonal() * R.transpose();
+                voxels.push_back(v);
+            }
+    return bandFromVoxels(std::move(voxels), h, 1000).band;
+}
+
+nlohmann::json measure(const std::string& name, const Band& band, const Vec3d& source) {
+    const std::size_t n = band.size();
+    const std::size_t s = nearestBandVoxel(band, source);
+    std::unique_ptr<FastMarching> fm;
+    const double tTables = median([&] { fm = std::make_unique<FastMarching>(band); });
+    FastMarchingResult r;
+    const double tMarch = median([&] { r = fm->run({s}); });
+    int width = 0;
+    for (const VoxelStencil& st : band.stencil) width = std::max<int>(width, st.width);
+    nlohmann::json row = {{"case", name}, {"voxels", n}, {"accepted", r.accepted}, {"unreached", r.unreached},
+                          {"max_stencil_width", width}, {"tables_s", tTables}, {"march_s", tMarch},
+                          {"accepted_per_s_march", double(r.accepted) / tMarch},
+                          {"accepted_per_s_with_tables", double(r.accepted) / (tMarch + tTables)},
+                          {"table_bytes_per_voxel", fm->bytesPerVoxel()}};
+    // === One path from the farthest reached voxel
+    std::size_t far = s;
+    for (std::size_t i = 0; i < n; ++i)
+        if (std::isfinite(r.distance[i]) && r.distance[i] > r.distance[far]) far = i;
+    GeodesicPath path;
+    const double tPath = median([&] { path = backtrack(band, r.distance, far); });
+    row["path"] = {{"points", path.points.size()}, {"seconds", tPath}, {"reached_source", path.reachedSource}};
+    std::cout << row.dump() << std::endl;
+    return row;
+}
+
+Band bunnyBand(const std::string& data, double sigma) {
+    const Samples s = makeSamples(readInput(data + "/bunny.obj"), {sigma}).samples;
+    const BarnesHutGpis model(s, 0.4 * s.lengthScale);
+    BandOptions o;
+    o.voxelSize = chooseResolution(model, s).hStar;
+    return buildBand(model, s, o).band;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::string part = "all", out = "bench/results/geodesic.json", data = "../shared/data";
+    std::vector<int> sizes = {100, 150, 200};
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--part" && i + 1 < argc) part = argv[++i];
+        else if (a == "--out" && i + 1 < argc) out = argv[++i];
+        else if (a == "--data" && i + 1 < argc) data = argv[++i];
+        else if (a == "--repeat" && i + 1 < argc) gRepeat = std::max(1, std::atoi(argv[++i]));
+        else if (a == "--sizes" && i + 1 < argc) {
+            sizes.clear();
+            std::stringstream ss(argv[++i]);
+            for (std::string t; std::getline(ss, t, ',');) sizes.push_back(std::atoi(t.c_str()));
+        } else {
+            std::cerr << "usage: bench_geodesic [--part boxes|bunny|all] [--out FILE.json] [--data DIR] [--repeat R] "
+                         "[--sizes 100,150,200]\n";
+            return 2;
+        }
+    }
+    nlohmann::json report;
+    {
+        std::ifstream in(out);
+        if (in) try { in >> report; } catch (...) { report = nlohmann::json::object(); }
+    }
+    report["machine"] = "2-core x86-64 (project machine); fast marching is single-threaded";
+    report["command"] = "build/bin/bench_geodesic --part " + part + " --repeat " + std::to_string(gRepeat);
+    report["reference_hfm_accepted_per_s"] = {{"box_100_anisotropy_10", 0.57e6}, {"box_200_anisotropy_10", 0.26e6},
+                                              {"box_200_varying", 0.15e6}, {"target", 2e6}};
+    if (part == "boxes" || part == "all") {
+        report["boxes"] = nlohmann::json::array();
+        for (int n : sizes) report["boxes"].push_back(measure("box " + std::to_string(n) + "^3, anisotropy 10", box(n, 10, false), Vec3d::Zero()));
+        const int n = sizes.back();
+        report["boxes"].push_back(measure("box " + std::to_string(n) + "^3, anisotropy 10, varying metric", box(n, 10, true), Vec3d::Zero()));
+    }
+    if (part == "bunny" || part == "all") {
+        report["bunny"] = nlohmann::json::array();
+        for (double sigma : {1.0, 0.5, 0.25}) {
+            const Band band = bunnyBand(data, sigma);
+            nlohmann::json row = measure("bunny, sigma_rel " + std::to_string(sigma).substr(0, 4), band, Vec3d(0.5, 6, 1));
+            row["sigma_rel"] = sigma;
+            report["bunny"].push_back(row);
+        }
+    }
+    std::ofstream(out) << report.dump(2) << "\n";
+    std::cout << "wrote " << out << "\n";
+}
