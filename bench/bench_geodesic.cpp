@@ -5,7 +5,6 @@
 //        [--sizes 100,150,200]
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <chrono>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -18,24 +17,17 @@
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/green.h"
 
+#include "timing.h"
+
 using namespace gpisvdb;
-using Clock = std::chrono::steady_clock;
 
 namespace {
 
-double seconds(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 int gRepeat = 3;
 
 template <class F>
 double median(F&& f) {
-    std::vector<double> t;
-    for (int r = 0; r < gRepeat; ++r) {
-        const auto t0 = Clock::now();
-        f();
-        t.push_back(seconds(t0));
-    }
-    std::sort(t.begin(), t.end());
-    return t[t.size() / 2];
+    return bench::medianSeconds(gRepeat, f);
 }
 
 /// n³ voxels over [−1, 1]³ with T = R diag(1, 1/a², 1/a) Rᵀ (anisotropy a); `varying`: R turns with position.

@@ -17,24 +17,19 @@
 #include "gpisvdb/stencil/resolution.h"
 #include "gpisvdb/tasks/green.h"
 
+#include "timing.h"
+
 using namespace gpisvdb;
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
 
 namespace {
 
-double seconds(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+using bench::seconds;
 int gRepeat = 5;
 
 template <class F>
 double median(F&& f) {
-    std::vector<double> t;
-    for (int r = 0; r < gRepeat; ++r) {
-        const auto t0 = Clock::now();
-        f();
-        t.push_back(seconds(t0));
-    }
-    std::sort(t.begin(), t.end());
-    return t[t.size() / 2];
+    return bench::medianSeconds(gRepeat, f);
 }
 
 /// ‖b − A x‖₂ / ‖b‖₂ recomputed in double.
