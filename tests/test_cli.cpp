@@ -138,6 +138,20 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"geodesic " + bunny + " --source 0,6,0 -o " + vdb + " --stop-at-targets", "--stop-at-targets"},
         {"geodesic " + bunny + " --source 0,6,0 --target 1,6,0 -o " + vdb + " --paths " + temp("p.stl"), "path extension"},
         {"geodesic " + bunny + " --source 0,6,0,1 -o " + vdb, "X,Y,Z"},
+        {"spectrum " + bunny + " -k 0 -o " + vdb, "-k"},
+        {"spectrum " + bunny + " -k 100000 -o " + vdb + " --voxel-size 0.4 --sigma 2", "between 1 and"},
+        {"spectrum " + bunny + " -k 200 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M", "eigenvectors of a band"},
+        {"spectrum " + bunny + " -k 4 --eigen-tolerance 0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "tolerance"},
+        {"regress " + bunny + " --data /nonexistent.csv -o " + vdb, "no such file"},
+        {"regress " + bunny + " --data " + temp("cols.csv", "x,y,z,v\n1,2,3\n") + " -o " + vdb, "4 or 5 columns"},
+        {"regress " + bunny + " --data " + temp("nanv.csv", "1,2,3,nan\n") + " -o " + vdb, "non-finite"},
+        {"regress " + bunny + " --data " + temp("negn.csv", "1,2,3,4,-1\n") + " -o " + vdb, "noise"},
+        {"regress " + bunny + " --data " + temp("hdr.csv", "x,y,z,value\n") + " -o " + vdb, "no data rows"},
+        {"regress " + bunny + " --data " + temp("ok.csv", "0,0,0,1\n") + " --nu abc -o " + vdb, "--nu"},
+        {"regress " + bunny + " --data " + temp("ok.csv") + " --nu 0 -o " + vdb, "--nu"},
+        {"regress " + bunny + " --data " + temp("ok.csv") + " --kappa -1 -o " + vdb, "--kappa"},
+        {"regress " + bunny + " --data " + temp("far.csv", "100,0,0,1\n") + " -k 4 -o " + vdb + " --voxel-size 0.4 --sigma 2",
+         "outside the band"},
     };
     for (const Case& c : cases) {
         fs::remove(out);
@@ -224,6 +238,75 @@ TEST_CASE("cli: green writes the band grids and 'green', with solver fields in t
     std::stringstream ts;
     ts << t.rdbuf();
     CHECK_THAT(ts.str(), Catch::Contains("Name: green"));
+}
+
+TEST_CASE("cli: spectrum writes eigen_000 ... with ascending eigenvalues and small residuals in the report", "[cli]") {
+    const std::string vdb = temp("spectrum.vdb"), json = temp("spectrum.json");
+    const Run r = run("spectrum " + gpisvdb::test::dataPath("bunny.obj") + " -k 6 -o " + vdb + " --report " + json +
+                      " --sigma 2 --voxel-size 0.4 --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
+    const auto& values = report["spectrum"]["eigenvalues"];
+    REQUIRE(values.size() == 6);
+    CHECK(values[0].get<double>() > 0);
+    for (std::size_t i = 1; i < values.size(); ++i) CHECK(values[i].get<double>() >= values[i - 1].get<double>());
+    for (const auto& res : report["spectrum"]["residuals"]) CHECK(res.get<double>() <= 1e-6);
+    CHECK(report["spectrum"]["orthonormality_error"].get<double>() <= 1e-8);
+    openvdb::initialize();
+    openvdb::io::File file(vdb);
+    file.open();
+    for (const char* name : {"eigen_000", "eigen_005", "mu"}) CHECK(file.hasGrid(name));
+    CHECK_FALSE(file.hasGrid("eigen_006"));
+    const auto meta = file.getMetadata();
+    CHECK((*meta)["eigen_001_eigenvalue"]);
+    CHECK(meta->metaValue<double>("eigen_001_eigenvalue") == Approx(values[1].get<double>()));
+    const auto e0 = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("eigen_000"));
+    CHECK(e0->activeVoxelCount() == report["band"]["voxels"].get<openvdb::Index64>());
+    file.close();
+}
+
+TEST_CASE("cli: regress interpolates exact data and writes regression_mean and regression_variance", "[cli]") {
+    // Data at five of the bunny's own vertices: on the shape, so in the band.
+    std::ifstream obj(gpisvdb::test::dataPath("bunny.obj"));
+    std::string line, csv = "x,y,z,value\n";
+    int count = 0;
+    std::vector<double> values;
+    for (int row = 0; std::getline(obj, line) && count < 5; ++row) {
+        if (line.rfind("v ", 0) != 0 || row % 97 != 0) continue;
+        std::istringstream in(line.substr(2));
+        double x, y, z;
+        in >> x >> y >> z;
+        values.push_back(count * 1.5 - 2);
+        csv += std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(z) + "," + std::to_string(values.back()) + "\n";
+        ++count;
+    }
+    REQUIRE(count == 5);
+    const std::string vdb = temp("regress.vdb"), json = temp("regress.json");
+    const Run r = run("regress " + gpisvdb::test::dataPath("bunny.obj") + " --data " + temp("regress.csv", csv) +
+                      " -k 30 --nu 2.5 -o " + vdb + " --report " + json + " --sigma 2 --voxel-size 0.4 --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
+    const auto& g = report["regression"];
+    CHECK(g["points"] == 5);
+    CHECK(g["nu"].get<double>() == 2.5);
+    for (std::size_t j = 0; j < values.size(); ++j) {
+        CHECK(g["mean_at_data"][j].get<double>() == Approx(values[j]).margin(1e-5));
+        CHECK(g["variance_at_data"][j].get<double>() <= 1e-5 * g["amplitude"].get<double>());
+    }
+    CHECK(report["spectrum"]["eigenvalues"].size() == 30);
+    openvdb::initialize();
+    openvdb::io::File file(vdb);
+    file.open();
+    CHECK(file.hasGrid("regression_mean"));
+    CHECK(file.hasGrid("regression_variance"));
+    const auto var = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("regression_variance"));
+    float lo = 0, hi = 0;
+    var->evalMinMax(lo, hi);
+    CHECK(lo >= 0);
+    CHECK(hi > 0);
+    file.close();
 }
 
 TEST_CASE("cli: geodesic writes 'geodesic' and a bunny path between far points that keeps near the mean surface", "[cli]") {

@@ -13,5 +13,7 @@ void addBand(CLI::App& app, Action& action);
 void addGreen(CLI::App& app, Action& action);
 void addGeodesic(CLI::App& app, Action& action);
 void addMesh(CLI::App& app, Action& action);
+void addSpectrum(CLI::App& app, Action& action);
+void addRegress(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

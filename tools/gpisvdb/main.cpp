@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
     cli::addDemo(app, action);
     cli::addBand(app, action);
     cli::addGreen(app, action);
+    cli::addSpectrum(app, action);
+    cli::addRegress(app, action);
     cli::addGeodesic(app, action);
     cli::addMesh(app, action);
     for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);

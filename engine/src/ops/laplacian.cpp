@@ -16,22 +16,24 @@ openvdb::Coord offsetOf(const VoxelStencil& st, int k) {
     const auto& e = st.offset[std::size_t(k)];
     return openvdb::Coord(e[0], e[1], e[2]);
 }
-}  // namespace
 
-SparseMatrixF assembleLaplacian(const Band& band) {
+template <class Matrix>
+Matrix assembleLaplacianAs(const Band& band) {
+    using Scalar = typename Matrix::Scalar;
+    using Triplet = Eigen::Triplet<Scalar, int>;
     const std::size_t n = band.size();
     const double h = band.voxelSize;
-    std::vector<Eigen::Triplet<float, int>> slots(n * kMaxTripletsPerVoxel);
+    std::vector<Triplet> slots(n * kMaxTripletsPerVoxel);
     std::vector<int> used(n, 0);
     // === Edges of every voxel's stencil, into fixed slots (the order, and so the sums, never depend on threads)
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 256), [&](const tbb::blocked_range<std::size_t>& r) {
         auto acc = band.index->getConstAccessor();
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            Eigen::Triplet<float, int>* out = &slots[i * kMaxTripletsPerVoxel];
+            Triplet* out = &slots[i * kMaxTripletsPerVoxel];
             int m = 0;
             const VoxelStencil& st = band.stencil[i];
             for (int k = 0; k < st.count; ++k) {
-                const float w = float(0.5 * h * double(st.weight[std::size_t(k)]));
+                const Scalar w = Scalar(0.5 * h * double(st.weight[std::size_t(k)]));
                 const openvdb::Coord e = offsetOf(st, k);
                 for (const openvdb::Coord& y : {band.coord[i] + e, band.coord[i] - e}) {
                     const int j = acc.getValue(y);
@@ -45,7 +47,7 @@ SparseMatrixF assembleLaplacian(const Band& band) {
             used[i] = m;
         }
     });
-    std::vector<Eigen::Triplet<float, int>> triplets;
+    std::vector<Triplet> triplets;
     std::size_t total = 0;
     for (int u : used) total += std::size_t(u);
     triplets.reserve(total);
@@ -54,11 +56,15 @@ SparseMatrixF assembleLaplacian(const Band& band) {
                         slots.begin() + long(i * kMaxTripletsPerVoxel) + used[i]);
     slots.clear();
     slots.shrink_to_fit();
-    SparseMatrixF L(static_cast<int>(n), static_cast<int>(n));
+    Matrix L(static_cast<int>(n), static_cast<int>(n));
     L.setFromTriplets(triplets.begin(), triplets.end());
     L.makeCompressed();
     return L;
 }
+}  // namespace
+
+SparseMatrixF assembleLaplacian(const Band& band) { return assembleLaplacianAs<SparseMatrixF>(band); }
+SparseMatrixD assembleLaplacianDouble(const Band& band) { return assembleLaplacianAs<SparseMatrixD>(band); }
 
 std::vector<float> massDiagonal(const Band& band) {
     const double h3 = band.voxelSize * band.voxelSize * band.voxelSize;

@@ -16,6 +16,10 @@ namespace gpisvdb {
 /// L over the band's voxels (linear index order), symmetric by construction. Deterministic for any thread count.
 SparseMatrixF assembleLaplacian(const Band& band);
 
+/// The same L with entries summed in double (the eigen solver's: its residuals reach 1e-10, below float's
+/// rounding of the entries). Same sparsity and order of sums as assembleLaplacian.
+SparseMatrixD assembleLaplacianDouble(const Band& band);
+
 /// M's diagonal, h³ μ (world units², so uᵀ M v → ∫ u v dμ).
 std::vector<float> massDiagonal(const Band& band);
 

@@ -9,6 +9,8 @@
 namespace gpisvdb {
 
 using SparseMatrixF = Eigen::SparseMatrix<float, Eigen::RowMajor, int>;
+/// Double precision, compressed columns: what sparse Cholesky factorisations (CHOLMOD) take.
+using SparseMatrixD = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
 class SymmetricOperator {
 public:

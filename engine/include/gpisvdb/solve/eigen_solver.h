@@ -1,0 +1,43 @@
+#pragma once
+// The k lowest pairs of the generalized eigenproblem L u = λ M u (paper Sec. 10.1; DESIGN §3.8), L symmetric
+// positive definite (the band Laplacian with homogeneous Dirichlet conditions), M diagonal positive (the mass).
+// Method, chosen by measurement (docs/spectrum.md, bench/results/spectrum.json): implicitly restarted Lanczos
+// (Spectra) on the shift-invert operator L⁻¹ M, with L factored once by CHOLMOD's supernodal Cholesky. The
+// Lanczos basis is M-orthonormal, so the eigenvectors come out with UᵀMU = I.
+#include <cstddef>
+#include <string>
+#include <Eigen/Core>
+
+#include "gpisvdb/core/progress.h"
+#include "gpisvdb/ops/linear_operator.h"
+
+namespace gpisvdb {
+
+struct EigenOptions {
+    int count = 20;            ///< k, the number of lowest pairs wanted (1 ≤ k < N)
+    int subspace = 0;          ///< Lanczos basis size (k < ncv ≤ N); 0: max(2k, k + 20), capped at N. Memory: 8·N·ncv bytes
+    double tolerance = 1e-10;  ///< Spectra's relative tolerance on each Ritz value of L⁻¹M
+    int maxRestarts = 1000;    ///< cap on Lanczos restarts before giving up
+};
+
+struct EigenResult {
+    Eigen::VectorXd values;     ///< λ_0 ≤ λ_1 ≤ … (k of them)
+    Eigen::MatrixXd vectors;    ///< N × k, column i = u_i, M-orthonormal, sign fixed (largest |entry| positive)
+    Eigen::VectorXd residuals;  ///< ‖L u_i − λ_i M u_i‖ / (|λ_i| ‖M u_i‖)
+    double orthonormalityError = 0;  ///< max |UᵀMU − I|
+    int subspace = 0;               ///< the Lanczos basis size used
+    long restarts = 0;              ///< Lanczos restarts
+    long solves = 0;                ///< applications of L⁻¹ (one CHOLMOD forward/back substitution each)
+    double factorSeconds = 0, lanczosSeconds = 0;
+    std::size_t factorBytes = 0;    ///< CHOLMOD's peak memory during the factorisation
+    double factorNonzeros = 0;      ///< entries of the Cholesky factor (the fill: 8 bytes each)
+    std::string ordering;           ///< the fill-reducing ordering CHOLMOD chose (AMD, METIS, NESDIS, ...)
+};
+
+/// The k lowest eigenpairs. Throws ParameterError for k out of range or a mass that is not positive, Error when L
+/// is not positive definite or Lanczos does not converge within maxRestarts. Deterministic (sequential CHOLMOD,
+/// fixed start vector), so identical for any thread count.
+EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass, const EigenOptions& options = {},
+                             const Progress& progress = {});
+
+}  // namespace gpisvdb

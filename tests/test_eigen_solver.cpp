@@ -1,0 +1,144 @@
+// The generalized eigen solver L u = λ M u (solve/eigen_solver.h).
+#include <Eigen/Eigenvalues>
+#include <catch2/catch.hpp>
+#include <random>
+#include <tbb/global_control.h>
+
+#include "band_fixtures.h"
+#include "gpisvdb/core/errors.h"
+#include "gpisvdb/ops/laplacian.h"
+#include "gpisvdb/tasks/spectrum.h"
+
+using namespace gpisvdb;
+
+namespace {
+
+/// A 3D grid Laplacian (Dirichlet) with random positive edge weights, and a random positive mass.
+std::pair<SparseMatrixD, Eigen::VectorXd> randomProblem(int side, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> U(0.5, 2.0);
+    const int n = side * side * side;
+    auto id = [&](int x, int y, int z) { return (z * side + y) * side + x; };
+    std::vector<Eigen::Triplet<double>> t;
+    for (int z = 0; z < side; ++z)
+        for (int y = 0; y < side; ++y)
+            for (int x = 0; x < side; ++x) {
+                const int i = id(x, y, z);
+                for (int a = 0; a < 3; ++a) {
+                    int q[3] = {x, y, z};
+                    if (q[a] == 0) t.emplace_back(i, i, U(rng));  // the edge out of the grid's low face
+                    q[a] += 1;
+                    const double w = U(rng);
+                    t.emplace_back(i, i, w);
+                    if (q[a] == side) continue;  // out of the high face: u = 0 there
+                    const int j = id(q[0], q[1], q[2]);
+                    t.emplace_back(j, j, w);
+                    t.emplace_back(i, j, -w);
+                    t.emplace_back(j, i, -w);
+                }
+            }
+    SparseMatrixD L(n, n);
+    L.setFromTriplets(t.begin(), t.end());
+    Eigen::VectorXd m(n);
+    for (int i = 0; i < n; ++i) m(i) = U(rng);
+    return {L, m};
+}
+
+}  // namespace
+
+TEST_CASE("eigen solver: the lowest pairs match a dense generalized solve", "[eigen]") {
+    const auto [L, m] = randomProblem(7, 3);  // 343 unknowns
+    EigenOptions o;
+    o.count = 12;
+    const EigenResult r = lowestEigenpairs(L, m, o);
+    const Eigen::MatrixXd Ld(L);
+    const Eigen::MatrixXd Md = m.asDiagonal();
+    const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> dense(Ld, Md);
+    for (int i = 0; i < o.count; ++i) {
+        CHECK(r.values(i) == Approx(dense.eigenvalues()(i)).epsilon(1e-10));
+        // Same vector up to sign (the lowest spectrum of this random problem is simple).
+        CHECK(std::abs(r.vectors.col(i).dot(Md * dense.eigenvectors().col(i))) == Approx(1.0).epsilon(1e-8));
+    }
+}
+
+TEST_CASE("eigen solver: residuals <= 1e-6, U^T M U = I within 1e-8, eigenvalues ascending and positive", "[eigen]") {
+    const Band& band = test::sphereBand();
+    for (int k : {1, 20, 60}) {
+        INFO("k = " << k);
+        EigenOptions o;
+        o.count = k;
+        const EigenResult r = spectrum(band, o);
+        REQUIRE(r.values.size() == k);
+        REQUIRE(r.vectors.rows() == Eigen::Index(band.size()));
+        CHECK(r.values(0) > 0);
+        for (int i = 1; i < k; ++i) CHECK(r.values(i) >= r.values(i - 1));
+        CHECK(r.residuals.maxCoeff() <= 1e-6);
+        CHECK(r.orthonormalityError <= 1e-8);
+        // Recomputed here, independently of the solver's own check.
+        const Eigen::MatrixXd gram = r.vectors.transpose() * massVector(band).asDiagonal() * r.vectors;
+        CHECK((gram - Eigen::MatrixXd::Identity(k, k)).cwiseAbs().maxCoeff() <= 1e-8);
+        // Each sign is fixed: the largest |entry| is positive.
+        for (int i = 0; i < k; ++i) CHECK(r.vectors.col(i).maxCoeff() >= -r.vectors.col(i).minCoeff());
+    }
+}
+
+TEST_CASE("eigen solver: identical for 1 and 2 threads", "[eigen]") {
+    const Band& band = test::torusGapBand();
+    EigenOptions o;
+    o.count = 10;
+    EigenResult one, two;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        one = spectrum(band, o);
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        two = spectrum(band, o);
+    }
+    CHECK(one.values == two.values);
+    CHECK(one.vectors == two.vectors);
+}
+
+TEST_CASE("eigen solver: eigenvalues scale by 1/a^2 when the scene is scaled by a = 1e-3 … 1e6", "[eigen]") {
+    // L is scale invariant and M scales by a² (see the ops test of the same name): λ → λ / a².
+    const Band ref = test::anisotropicBall(6, 0.1, 5.0);
+    EigenOptions o;
+    o.count = 6;
+    const EigenResult r0 = spectrum(ref, o);
+    for (double a : {1e-3, 1e3, 1e6}) {
+        INFO("scale " << a);
+        std::vector<BandVoxel> voxels;
+        for (std::size_t i = 0; i < ref.size(); ++i) {
+            BandVoxel v;
+            v.coord = ref.coord[i];
+            v.mu = ref.mu[i] / a;
+            const auto& t = ref.T[i];
+            v.T << t[0], t[3], t[4], t[3], t[1], t[5], t[4], t[5], t[2];
+            v.T /= a;
+            voxels.push_back(v);
+        }
+        const Band scaled = bandFromVoxels(std::move(voxels), a * ref.voxelSize, 100).band;
+        const EigenResult r = spectrum(scaled, o);
+        for (int i = 0; i < o.count; ++i) CHECK(a * a * r.values(i) == Approx(r0.values(i)).epsilon(1e-5));
+        CHECK(r.residuals.maxCoeff() <= 1e-6);
+    }
+}
+
+TEST_CASE("eigen solver: refuses k out of range, a non-positive mass and an indefinite L", "[eigen]") {
+    const auto [L, m] = randomProblem(4, 5);  // 64 unknowns
+    EigenOptions o;
+    o.count = 0;
+    CHECK_THROWS_AS(lowestEigenpairs(L, m, o), ParameterError);
+    o.count = 64;
+    CHECK_THROWS_WITH(lowestEigenpairs(L, m, o), Catch::Contains("between 1 and 63"));
+    o.count = 4;
+    Eigen::VectorXd bad = m;
+    bad(3) = 0;
+    CHECK_THROWS_AS(lowestEigenpairs(L, bad, o), ParameterError);
+    bad(3) = std::nan("");
+    CHECK_THROWS_AS(lowestEigenpairs(L, bad, o), ParameterError);
+    const SparseMatrixD negative = -L;
+    CHECK_THROWS_WITH(lowestEigenpairs(negative, m, o), Catch::Contains("not positive definite"));
+    o.subspace = 4;
+    CHECK_THROWS_AS(lowestEigenpairs(L, m, o), ParameterError);
+}

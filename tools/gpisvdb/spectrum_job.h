@@ -1,0 +1,21 @@
+#pragma once
+// What `spectrum` and `regress` share: the eigen solver's flags, its memory check, and its report section.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "band_job.h"
+#include "gpisvdb/solve/eigen_solver.h"
+
+namespace gpisvdb::cli {
+
+/// -k, --subspace, --eigen-tolerance, --max-restarts.
+void addEigenFlags(CLI::App& cmd, EigenOptions& options);
+
+/// The k lowest eigenpairs of the job's band, after checking that the Lanczos basis and the eigenvectors
+/// (8 N (ncv + k) bytes, the bulk of the memory beside the Cholesky factor) fit within --max-memory.
+EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress);
+
+/// The report's "spectrum" section: method, eigenvalues, residuals, orthonormality, solver counts and memory.
+nlohmann::json spectrumReport(const EigenResult& eigen);
+
+}  // namespace gpisvdb::cli
