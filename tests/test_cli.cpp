@@ -140,7 +140,7 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"geodesic " + bunny + " --source 0,6,0,1 -o " + vdb, "X,Y,Z"},
         {"spectrum " + bunny + " -k 0 -o " + vdb, "-k"},
         {"spectrum " + bunny + " -k 100000 -o " + vdb + " --voxel-size 0.4 --sigma 2", "between 1 and"},
-        {"spectrum " + bunny + " -k 200 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M", "eigenvectors of a band"},
+        {"spectrum " + bunny + " -k 200 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M", "eigenpairs of a band"},
         {"spectrum " + bunny + " -k 4 --eigen-tolerance 0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "tolerance"},
         {"regress " + bunny + " --data /nonexistent.csv -o " + vdb, "no such file"},
         {"regress " + bunny + " --data " + temp("cols.csv", "x,y,z,v\n1,2,3\n") + " -o " + vdb, "4 or 5 columns"},

@@ -141,4 +141,10 @@ TEST_CASE("eigen solver: refuses k out of range, a non-positive mass and an inde
     CHECK_THROWS_WITH(lowestEigenpairs(negative, m, o), Catch::Contains("not positive definite"));
     o.subspace = 4;
     CHECK_THROWS_AS(lowestEigenpairs(L, m, o), ParameterError);
+    // A memory cap below the factor's size is refused before the numeric factorisation.
+    o.subspace = 0;
+    o.maxBytes = 1000;
+    CHECK_THROWS_WITH(lowestEigenpairs(L, m, o), Catch::Contains("more than the"));
+    o.maxBytes = 1e9;
+    CHECK_NOTHROW(lowestEigenpairs(L, m, o));
 }

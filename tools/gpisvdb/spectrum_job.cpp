@@ -2,7 +2,6 @@
 
 #include <algorithm>
 
-#include "gpisvdb/core/errors.h"
 #include "gpisvdb/tasks/spectrum.h"
 
 namespace gpisvdb::cli {
@@ -16,17 +15,9 @@ void addEigenFlags(CLI::App& cmd, EigenOptions& o) {
 }
 
 EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress) {
-    const double n = double(job.result.band.size());
-    if (options.count >= 1 && options.count < n) {
-        const double ncv = options.subspace > 0 ? options.subspace : std::max(2.0 * options.count, options.count + 20.0);
-        const double bytes = 8.0 * n * (std::min(ncv, n) + options.count);
-        if (bytes > job.maxMemory)
-            throw ParameterError(std::to_string(options.count) + " eigenvectors of a band of " + std::to_string(std::size_t(n)) +
-                                 " voxels need about " + numberText(bytes / 1e9) + " GB (Lanczos basis and vectors), more than " +
-                                 "--max-memory allows (" + numberText(job.maxMemory / 1e9) +
-                                 " GB): lower -k, use a coarser --voxel-size, or raise --max-memory");
-    }
-    return spectrum(job.result.band, options, progress);
+    EigenOptions o = options;
+    o.maxBytes = std::max(1.0, job.maxMemory - double(job.result.band.size()) * job.result.band.bytesPerVoxel());
+    return spectrum(job.result.band, o, progress);
 }
 
 nlohmann::json spectrumReport(const EigenResult& e) {

@@ -11,8 +11,8 @@ namespace gpisvdb::cli {
 /// -k, --subspace, --eigen-tolerance, --max-restarts.
 void addEigenFlags(CLI::App& cmd, EigenOptions& options);
 
-/// The k lowest eigenpairs of the job's band, after checking that the Lanczos basis and the eigenvectors
-/// (8 N (ncv + k) bytes, the bulk of the memory beside the Cholesky factor) fit within --max-memory.
+/// The k lowest eigenpairs of the job's band, refused before the numeric factorisation when the factor, the Lanczos
+/// basis and the vectors would not fit in --max-memory beside the band.
 EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress);
 
 /// The report's "spectrum" section: method, eigenvalues, residuals, orthonormality, solver counts and memory.

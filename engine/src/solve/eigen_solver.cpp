@@ -63,6 +63,10 @@ constexpr Eigen::Index kCheckBlock = 16;  // columns per block of the residual a
 
 }  // namespace
 
+double eigenBytes(double factorNonzeros, double n, double subspace, double count) {
+    return 12.0 * factorNonzeros + 8.0 * n * (subspace + count);
+}
+
 EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass, const EigenOptions& options,
                              const Progress& progress) {
     const Eigen::Index n = L.rows();
@@ -82,12 +86,19 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     EigenResult result;
     result.subspace = int(ncv);
 
-    // === Factor L = R Rᵀ (CHOLMOD, supernodal, fill-reducing ordering of its choice)
+    // === Factor L = R Rᵀ (CHOLMOD, supernodal, fill-reducing ordering of its choice), after checking its size
     auto t = Clock::now();
     progress.update("factorize", 0);
     InverseOperator::Factor factor;
-    factor.cholmod().print = 0;  // failures are reported by the exception below, not on stderr
-    factor.compute(L);
+    factor.cholmod().print = 0;  // failures are reported by the exceptions below, not on stderr
+    factor.analyzePattern(L);
+    const double needed = eigenBytes(factor.cholmod().lnz, double(n), double(ncv), double(k));
+    if (options.maxBytes > 0 && needed > options.maxBytes)
+        throw ParameterError(std::to_string(k) + " eigenpairs of a band of " + std::to_string(n) + " voxels need about " +
+                             numberText(needed / 1e9) + " GB (Cholesky factor of " + numberText(factor.cholmod().lnz) +
+                             " entries, Lanczos basis and vectors), more than the " + numberText(options.maxBytes / 1e9) +
+                             " GB allowed: lower -k, use a coarser --voxel-size, or raise --max-memory");
+    factor.factorize(L);
     if (factor.info() != Eigen::Success)
         throw Error("the Laplacian is not positive definite (CHOLMOD failed to factor it): is the band empty or broken?");
     const cholmod_common& c = factor.cholmod();

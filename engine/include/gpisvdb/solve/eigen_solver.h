@@ -18,6 +18,7 @@ struct EigenOptions {
     int subspace = 0;          ///< Lanczos basis size (k < ncv ≤ N); 0: max(2k, k + 20), capped at N. Memory: 8·N·ncv bytes
     double tolerance = 1e-10;  ///< Spectra's relative tolerance on each Ritz value of L⁻¹M
     int maxRestarts = 1000;    ///< cap on Lanczos restarts before giving up
+    double maxBytes = 0;       ///< refuse (ParameterError) when the factor, basis and vectors would need more; 0: no cap
 };
 
 struct EigenResult {
@@ -34,7 +35,13 @@ struct EigenResult {
     std::string ordering;           ///< the fill-reducing ordering CHOLMOD chose (AMD, METIS, NESDIS, ...)
 };
 
-/// The k lowest eigenpairs. Throws ParameterError for k out of range or a mass that is not positive, Error when L
+/// Bytes the solve needs beyond L and M, estimated before the numeric factorisation: 12 per entry of the
+/// Cholesky factor (its 8, and CHOLMOD's workspace: measured 1.4–1.5× the factor on bunny bands) plus
+/// 8 N (ncv + k) for the Lanczos basis and the vectors.
+double eigenBytes(double factorNonzeros, double n, double subspace, double count);
+
+/// The k lowest eigenpairs. Throws ParameterError for k out of range, a mass that is not positive or a solve that
+/// would exceed options.maxBytes (checked after CHOLMOD's symbolic analysis, before any large allocation), Error when L
 /// is not positive definite or Lanczos does not converge within maxRestarts. Deterministic (sequential CHOLMOD,
 /// fixed start vector), so identical for any thread count.
 EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass, const EigenOptions& options = {},
