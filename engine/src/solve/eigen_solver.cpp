@@ -64,7 +64,7 @@ constexpr Eigen::Index kCheckBlock = 16;  // columns per block of the residual a
 }  // namespace
 
 double eigenBytes(double factorNonzeros, double n, double subspace, double count) {
-    return 12.0 * factorNonzeros + 8.0 * n * (subspace + count);
+    return 12.0 * factorNonzeros + 8.0 * n * (2.0 * subspace + count);
 }
 
 EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass, const EigenOptions& options,
