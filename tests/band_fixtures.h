@@ -53,6 +53,22 @@ inline Band anisotropicBall(int radius, double h, double a, double maxAnisotropy
     return bandFromVoxels(std::move(voxels), h, maxAnisotropy).band;
 }
 
+/// `ref`'s voxels as if the scene were scaled by `a`: μ and T are densities per unit length, so both become 1/a
+/// of their values (build the band with voxel size a h).
+inline std::vector<BandVoxel> scaledVoxels(const Band& ref, double a) {
+    std::vector<BandVoxel> voxels;
+    for (std::size_t i = 0; i < ref.size(); ++i) {
+        BandVoxel v;
+        v.coord = ref.coord[i];
+        v.mu = ref.mu[i] / a;
+        const auto& t = ref.T[i];
+        v.T << t[0], t[3], t[4], t[3], t[1], t[5], t[4], t[5], t[2];
+        v.T /= a;
+        voxels.push_back(v);
+    }
+    return voxels;
+}
+
 inline std::vector<float> randomField(std::size_t n, std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<float> U(-1, 1);

@@ -107,17 +107,7 @@ TEST_CASE("eigen solver: eigenvalues scale by 1/a^2 when the scene is scaled by 
     const EigenResult r0 = spectrum(ref, o);
     for (double a : {1e-3, 1e3, 1e6}) {
         INFO("scale " << a);
-        std::vector<BandVoxel> voxels;
-        for (std::size_t i = 0; i < ref.size(); ++i) {
-            BandVoxel v;
-            v.coord = ref.coord[i];
-            v.mu = ref.mu[i] / a;
-            const auto& t = ref.T[i];
-            v.T << t[0], t[3], t[4], t[3], t[1], t[5], t[4], t[5], t[2];
-            v.T /= a;
-            voxels.push_back(v);
-        }
-        const Band scaled = bandFromVoxels(std::move(voxels), a * ref.voxelSize, 100).band;
+        const Band scaled = bandFromVoxels(test::scaledVoxels(ref, a), a * ref.voxelSize, 100).band;
         const EigenResult r = spectrum(scaled, o);
         for (int i = 0; i < o.count; ++i) CHECK(a * a * r.values(i) == Approx(r0.values(i)).epsilon(1e-5));
         CHECK(r.residuals.maxCoeff() <= 1e-6);

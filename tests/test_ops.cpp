@@ -118,22 +118,9 @@ TEST_CASE("ops: L is unchanged and M scales by a^2 when the scene is scaled by a
     std::vector<float> Lu;
     LaplacianOperator(ref).apply(u, Lu);
     const std::vector<float> m = massDiagonal(ref);
-    auto scaledVoxels = [&](double a) {
-        std::vector<BandVoxel> voxels;
-        for (std::size_t i = 0; i < ref.size(); ++i) {
-            BandVoxel v;
-            v.coord = ref.coord[i];
-            v.mu = ref.mu[i] / a;
-            const auto& t = ref.T[i];
-            v.T << t[0], t[3], t[4], t[3], t[1], t[5], t[4], t[5], t[2];
-            v.T /= a;
-            voxels.push_back(v);
-        }
-        return voxels;
-    };
     for (double a : {1e-3, 1e3, 1e6}) {
         INFO("scale " << a);
-        const Band scaled = bandFromVoxels(scaledVoxels(a), a * ref.voxelSize, 100).band;
+        const Band scaled = bandFromVoxels(test::scaledVoxels(ref, a), a * ref.voxelSize, 100).band;
         REQUIRE(scaled.size() == ref.size());
         std::vector<float> Lu2;
         LaplacianOperator(scaled).apply(u, Lu2);
@@ -144,7 +131,7 @@ TEST_CASE("ops: L is unchanged and M scales by a^2 when the scene is scaled by a
         }
     }
     // Voxels of 1e-7 world units: OpenVDB cannot hold the transform, and says so as a parameter error.
-    CHECK_THROWS_AS(bandFromVoxels(scaledVoxels(1e-6), 1e-6 * ref.voxelSize, 100), ParameterError);
+    CHECK_THROWS_AS(bandFromVoxels(test::scaledVoxels(ref, 1e-6), 1e-6 * ref.voxelSize, 100), ParameterError);
 }
 
 TEST_CASE("ops: the mass integrates to the band's expected area", "[ops]") {
