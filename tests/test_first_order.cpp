@@ -71,15 +71,51 @@ TEST_CASE("first order: matrix-free G, G^T, G_phi, D_phi equal their assembled f
     checkClose(out, times(assembleDivPhi(band), V), 1e-5);
 }
 
+TEST_CASE("first order: with Neumann boundaries G drops the differences leaving the band and kills constants", "[first_order]") {
+    const Band& band = test::torusGapBand();
+    const std::vector<float> u = randomField(band.size(), 5), V = randomField(3 * band.size(), 6);
+    std::vector<float> out;
+    const SparseMatrixF G = assembleGradient(band, Boundary::Neumann);
+    gradient(band, u, out, Boundary::Neumann);
+    checkClose(out, times(G, u), 1e-6);
+    gradientTranspose(band, V, out, Boundary::Neumann);
+    checkClose(out, times(SparseMatrixF(G.transpose()), V), 1e-6);
+    gradient(band, std::vector<float>(band.size(), 2.5f), out, Boundary::Neumann);
+    CHECK(test::maxAbs(out) == 0);
+    // K = Gᵀ BlockDiag(h³ T) G with the Neumann G: diagonal and product.
+    const NaiveLaplacianOperator K(band, Boundary::Neumann);
+    std::vector<float> Ku(band.size()), diag(band.size()), GTGu;
+    K.apply(u.data(), Ku.data());
+    K.diagonal(diag.data());
+    std::vector<double> h3T(band.size(), std::pow(band.voxelSize, 3));
+    SparseMatrixF B(int(3 * band.size()), int(3 * band.size()));
+    std::vector<Eigen::Triplet<float, int>> t;
+    for (std::size_t i = 0; i < band.size(); ++i) {
+        const auto& T = band.T[i];
+        const float m[3][3] = {{T[0], T[3], T[4]}, {T[3], T[1], T[5]}, {T[4], T[5], T[2]}};
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) t.emplace_back(int(3 * i) + a, int(3 * i) + b, float(h3T[i]) * m[a][b]);
+    }
+    B.setFromTriplets(t.begin(), t.end());
+    const SparseMatrixF Kassembled = SparseMatrixF(G.transpose()) * B * G;
+    checkClose(Ku, times(Kassembled, u), 1e-5);
+    std::vector<float> want(band.size());
+    for (int i = 0; i < int(band.size()); ++i) want[std::size_t(i)] = Kassembled.coeff(i, i);
+    checkClose(diag, want, 1e-5);
+    K.apply(std::vector<float>(band.size(), 1.0f).data(), Ku.data());
+    CHECK(test::maxAbs(Ku) < 1e-6 * test::maxAbs(diag));
+}
+
 TEST_CASE("first order: G^T is the adjoint of G, and D_phi of G in the mu-weighted products", "[first_order]") {
     const Band& band = test::torusGapBand();
+    const Boundary bc = GENERATE(Boundary::Dirichlet, Boundary::Neumann);
     const std::vector<float> u = randomField(band.size(), 3), V = randomField(3 * band.size(), 4);
     std::vector<float> Gu, GtV, DV;
-    gradient(band, u, Gu);
-    gradientTranspose(band, V, GtV);
+    gradient(band, u, Gu, bc);
+    gradientTranspose(band, V, GtV, bc);
     CHECK(dot(Gu, V) == Approx(dot(u, GtV)).epsilon(1e-5));
     // uᵀ M D_φ V = (G u)ᵀ (M ⊗ I) V  (paper Eq. 22).
-    divPhi(band, V, DV);
+    divPhi(band, V, DV, bc);
     const std::vector<float> m = massDiagonal(band);
     double lhs = 0, rhs = 0;
     for (std::size_t i = 0; i < band.size(); ++i) {

@@ -15,5 +15,7 @@ void addGeodesic(CLI::App& app, Action& action);
 void addMesh(CLI::App& app, Action& action);
 void addSpectrum(CLI::App& app, Action& action);
 void addRegress(CLI::App& app, Action& action);
+void addHodge(CLI::App& app, Action& action);
+void addDistance(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

@@ -35,70 +35,73 @@ void checkSize(std::size_t got, std::size_t want, const char* what) {
 
 /// (G u)_i in double.
 template <class Acc>
-Vec3d forwardDifference(const Band& band, const float* u, std::size_t i, Acc& acc) {
+Vec3d forwardDifference(const Band& band, const float* u, std::size_t i, Acc& acc, Boundary bc) {
     const double inv = 1.0 / band.voxelSize;
     Vec3d g;
     for (int c = 0; c < 3; ++c) {
         const int j = acc.getValue(band.coord[i] + kAxis[c]);
-        g[c] = ((j < 0 ? 0.0 : double(u[j])) - double(u[i])) * inv;
+        if (j < 0) g[c] = bc == Boundary::Neumann ? 0.0 : -double(u[i]) * inv;
+        else g[c] = (double(u[j]) - double(u[i])) * inv;
     }
     return g;
 }
 
-/// (Gᵀ v)_i = Σ_c (v_{i − e_c, c} − v_{i, c}) / h, with v read through `at(j, c)`.
+/// (Gᵀ v)_i = Σ_c (v_{i − e_c, c} − v_{i, c}) / h, with v read through `at(j, c)`; with Neumann boundaries the rows
+/// G dropped (differences leaving the band) drop out too.
 template <class Acc, class At>
-double transposeDifference(const Band& band, std::size_t i, Acc& acc, const At& at) {
+double transposeDifference(const Band& band, std::size_t i, Acc& acc, const At& at, Boundary bc) {
     double s = 0;
     for (int c = 0; c < 3; ++c) {
         const int j = acc.getValue(band.coord[i] - kAxis[c]);
-        s += (j < 0 ? 0.0 : at(std::size_t(j), c)) - at(i, c);
+        if (j >= 0) s += at(std::size_t(j), c);
+        if (bc == Boundary::Dirichlet || acc.getValue(band.coord[i] + kAxis[c]) >= 0) s -= at(i, c);
     }
     return s / band.voxelSize;
 }
 
 }  // namespace
 
-void gradient(const Band& band, const std::vector<float>& u, std::vector<float>& out) {
+void gradient(const Band& band, const std::vector<float>& u, std::vector<float>& out, Boundary bc) {
     checkSize(u.size(), band.size(), "gradient");
     out.resize(3 * band.size());
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        const Vec3d g = forwardDifference(band, u.data(), i, acc);
+        const Vec3d g = forwardDifference(band, u.data(), i, acc, bc);
         for (int c = 0; c < 3; ++c) out[3 * i + std::size_t(c)] = float(g[c]);
     });
 }
 
-void gradientTranspose(const Band& band, const std::vector<float>& v, std::vector<float>& out) {
+void gradientTranspose(const Band& band, const std::vector<float>& v, std::vector<float>& out, Boundary bc) {
     checkSize(v.size(), 3 * band.size(), "gradientTranspose");
     out.resize(band.size());
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        out[i] = float(transposeDifference(band, i, acc, [&](std::size_t j, int c) { return double(v[3 * j + std::size_t(c)]); }));
+        out[i] = float(transposeDifference(band, i, acc, [&](std::size_t j, int c) { return double(v[3 * j + std::size_t(c)]); }, bc));
     });
 }
 
-void gradPhi(const Band& band, const std::vector<float>& u, std::vector<float>& out) {
+void gradPhi(const Band& band, const std::vector<float>& u, std::vector<float>& out, Boundary bc) {
     checkSize(u.size(), band.size(), "gradPhi");
     out.resize(3 * band.size());
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        const Vec3d g = tensor(band, i) * forwardDifference(band, u.data(), i, acc) / double(band.mu[i]);
+        const Vec3d g = tensor(band, i) * forwardDifference(band, u.data(), i, acc, bc) / double(band.mu[i]);
         for (int c = 0; c < 3; ++c) out[3 * i + std::size_t(c)] = float(g[c]);
     });
 }
 
-void divPhi(const Band& band, const std::vector<float>& V, std::vector<float>& out) {
+void divPhi(const Band& band, const std::vector<float>& V, std::vector<float>& out, Boundary bc) {
     checkSize(V.size(), 3 * band.size(), "divPhi");
     out.resize(band.size());
     // (D_φ V)_i = (1/μ_i) Σ_c (μ_{i−e_c} V_{i−e_c,c} − μ_i V_{i,c}) / h: the h³ of M cancels.
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
         const double s = transposeDifference(band, i, acc, [&](std::size_t j, int c) {
             return double(band.mu[j]) * double(V[3 * j + std::size_t(c)]);
-        });
+        }, bc);
         out[i] = float(s / double(band.mu[i]));
     });
 }
 
 // === Assembled forms
 
-SparseMatrixF assembleGradient(const Band& band) {
+SparseMatrixF assembleGradient(const Band& band, Boundary bc) {
     const std::size_t n = band.size();
     const float inv = float(1.0 / band.voxelSize);
     std::vector<Eigen::Triplet<float, int>> t;
@@ -107,8 +110,8 @@ SparseMatrixF assembleGradient(const Band& band) {
     for (std::size_t i = 0; i < n; ++i)
         for (int c = 0; c < 3; ++c) {
             const int row = int(3 * i) + c;
-            t.emplace_back(row, int(i), -inv);
             const int j = acc.getValue(band.coord[i] + kAxis[c]);
+            if (j >= 0 || bc == Boundary::Dirichlet) t.emplace_back(row, int(i), -inv);
             if (j >= 0) t.emplace_back(row, j, inv);
         }
     SparseMatrixF G(int(3 * n), int(n));
@@ -162,27 +165,31 @@ SparseMatrixF assembleNaiveLaplacian(const Band& band) {
 
 // === K = Gᵀ BlockDiag(h³ T) G, matrix-free
 
-NaiveLaplacianOperator::NaiveLaplacianOperator(const Band& band) : band_(band), flux_(3 * band.size()) {}
+NaiveLaplacianOperator::NaiveLaplacianOperator(const Band& band, Boundary bc)
+    : band_(band), bc_(bc), flux_(3 * band.size()) {}
 
 void NaiveLaplacianOperator::apply(const float* u, float* out) const {
     const Band& band = band_;
     const double h3 = band.voxelSize * band.voxelSize * band.voxelSize;
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        const Vec3d f = h3 * (tensor(band, i) * forwardDifference(band, u, i, acc));
+        const Vec3d f = h3 * (tensor(band, i) * forwardDifference(band, u, i, acc, bc_));
         for (int c = 0; c < 3; ++c) flux_[3 * i + std::size_t(c)] = float(f[c]);
     });
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        out[i] = float(transposeDifference(band, i, acc, [&](std::size_t j, int c) { return double(flux_[3 * j + std::size_t(c)]); }));
+        out[i] = float(transposeDifference(band, i, acc, [&](std::size_t j, int c) { return double(flux_[3 * j + std::size_t(c)]); }, bc_));
     });
 }
 
 void NaiveLaplacianOperator::diagonal(float* out) const {
-    // K_ii = h³/h² (Σ_cd T_i,cd + Σ_c T_{i−e_c},cc): G's column i holds −1/h in all three rows of voxel i and
-    // +1/h in row c of the voxel i − e_c.
+    // K_ii = h³/h² (Σ_cd T_i,cd + Σ_c T_{i−e_c},cc): G's column i holds −1/h in the three rows of voxel i (with
+    // Neumann boundaries, only in rows c whose neighbour i + e_c is in the band) and +1/h in row c of voxel i − e_c.
     const Band& band = band_;
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
         const Mat3d T = tensor(band, i);
-        double s = T.sum();
+        Vec3d own = Vec3d::Ones();
+        if (bc_ == Boundary::Neumann)
+            for (int c = 0; c < 3; ++c) own[c] = acc.getValue(band.coord[i] + kAxis[c]) >= 0 ? 1.0 : 0.0;
+        double s = own.dot(T * own);
         for (int c = 0; c < 3; ++c) {
             const int j = acc.getValue(band.coord[i] - kAxis[c]);
             if (j >= 0) s += double(band.T[std::size_t(j)][std::size_t(c)]);

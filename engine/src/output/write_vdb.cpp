@@ -22,7 +22,7 @@ typename GridT::Ptr channel(const Band& band, const std::string& name, const Val
 }  // namespace
 
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
-                  const std::vector<NamedChannel>& extra) {
+                  const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors) {
     openvdb::initialize();
     openvdb::GridPtrVec grids;
     auto mu = channel<openvdb::FloatGrid>(band, "mu", [&](std::size_t i) { return band.mu[i]; });
@@ -51,6 +51,15 @@ void writeBandVdb(const Band& band, const std::string& path, const openvdb::Meta
         auto acc = grid->getAccessor();
         for (std::size_t i = 0; i < band.size(); ++i)
             if (!std::isfinite((*c.values)[i])) acc.setValueOff(band.coord[i], c.background);
+        grids.push_back(grid);
+    }
+    for (const NamedVectorChannel& c : vectors) {
+        if (!c.values || c.values->size() != 3 * band.size()) throw Error("vector channel '" + c.name + "' does not match the band");
+        const std::vector<float>& v = *c.values;
+        auto grid = channel<openvdb::Vec3SGrid>(band, c.name, [&](std::size_t i) {
+            return openvdb::Vec3s(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
+        });
+        grid->setVectorType(c.vectorType);
         grids.push_back(grid);
     }
     for (auto& g : grids) g->setSaveFloatAsHalf(false);

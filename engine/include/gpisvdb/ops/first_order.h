@@ -10,6 +10,9 @@
 // T here is the band's T channel as computed (not the anisotropy-regularised tensor the Selling stencils use).
 // Matrix-free forms gather from the band's index tree (deterministic for any thread count); assembled forms are
 // for factorisations and cross-checks.
+// Boundary: Dirichlet (paper Eq. 20, the default) takes u = 0 outside the band; Neumann drops the differences
+// that leave the band (zero normal derivative, hence D_φ with zero μ-flux through the band's boundary), which is
+// what a Hodge decomposition needs to recover gradients of potentials that do not vanish there.
 #include <vector>
 
 #include "gpisvdb/band/band.h"
@@ -17,26 +20,30 @@
 
 namespace gpisvdb {
 
-/// out (3N) = G u.
-void gradient(const Band& band, const std::vector<float>& u, std::vector<float>& out);
-/// out (N) = Gᵀ v, v of length 3N.
-void gradientTranspose(const Band& band, const std::vector<float>& v, std::vector<float>& out);
-/// out (3N) = G_φ u = (T/μ) G u per voxel.
-void gradPhi(const Band& band, const std::vector<float>& u, std::vector<float>& out);
-/// out (N) = D_φ V = M⁻¹ Gᵀ (M ⊗ I) V, V of length 3N.
-void divPhi(const Band& band, const std::vector<float>& V, std::vector<float>& out);
+enum class Boundary { Dirichlet, Neumann };
 
-SparseMatrixF assembleGradient(const Band& band);       ///< G, 3N × N
+/// out (3N) = G u.
+void gradient(const Band& band, const std::vector<float>& u, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
+/// out (N) = Gᵀ v, v of length 3N.
+void gradientTranspose(const Band& band, const std::vector<float>& v, std::vector<float>& out,
+                       Boundary bc = Boundary::Dirichlet);
+/// out (3N) = G_φ u = (T/μ) G u per voxel.
+void gradPhi(const Band& band, const std::vector<float>& u, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
+/// out (N) = D_φ V = M⁻¹ Gᵀ (M ⊗ I) V, V of length 3N.
+void divPhi(const Band& band, const std::vector<float>& V, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
+
+SparseMatrixF assembleGradient(const Band& band, Boundary bc = Boundary::Dirichlet);  ///< G, 3N × N
 SparseMatrixF assembleGradPhi(const Band& band);        ///< G_φ, 3N × N
 SparseMatrixF assembleDivPhi(const Band& band);         ///< D_φ, N × 3N
 SparseMatrixF assembleNaiveLaplacian(const Band& band); ///< D_φ G_φ, N × N (M-self-adjoint, not symmetric)
 
 /// K = M D_φ G_φ = Gᵀ BlockDiag(h³ T) G, symmetric positive semi-definite, uᵀ K u = h³ Σ_x (Gu)ᵀ T (Gu)
 /// (the naive discretisation of E[E_D(u)]). Holds a 3N work vector, so one object must not be applied from two
-/// threads at once.
+/// threads at once. With Neumann boundaries K is only semi-definite (constants per connected component are in its
+/// kernel); the PCG still solves K ψ = b for b = Gᵀ w, which is orthogonal to that kernel.
 class NaiveLaplacianOperator final : public SymmetricOperator {
 public:
-    explicit NaiveLaplacianOperator(const Band& band);
+    explicit NaiveLaplacianOperator(const Band& band, Boundary bc = Boundary::Dirichlet);
     std::size_t size() const override { return band_.size(); }
     void apply(const float* u, float* out) const override;
     void diagonal(float* out) const override;
@@ -44,6 +51,7 @@ public:
 
 private:
     const Band& band_;
+    Boundary bc_;
     mutable std::vector<float> flux_;  // h³ T G u, 3N
 };
 

@@ -19,9 +19,18 @@ struct NamedChannel {
     float background = 0;  ///< value of inactive voxels (outside the band, or non-finite)
 };
 
+/// A task's vector result over the band: 3 floats per voxel (interleaved), world units. `vectorType` tells Houdini
+/// and Blender how the vectors transform (openvdb::VEC_CONTRAVARIANT_RELATIVE for displacements and velocities).
+struct NamedVectorChannel {
+    std::string name;
+    const std::vector<float>* values = nullptr;
+    openvdb::VecType vectorType = openvdb::VEC_CONTRAVARIANT_RELATIVE;
+};
+
 /// Grids: mu (fog volume), mean, stddev, T_diag (xx, yy, zz), T_offdiag (xy, xz, yz), normal (outward unit),
-/// stencil_width (max ‖e‖₁, as float), then `extra`. Throws OutputError when the file cannot be written.
+/// stencil_width (max ‖e‖₁, as float), then `extra`, then `vectors`. Throws OutputError when the file cannot be
+/// written.
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
-                  const std::vector<NamedChannel>& extra = {});
+                  const std::vector<NamedChannel>& extra = {}, const std::vector<NamedVectorChannel>& vectors = {});
 
 }  // namespace gpisvdb

@@ -1,0 +1,53 @@
+#pragma once
+// Hodge decomposition of a vector field on the band (paper Eq. 29, App. E; DESIGN §3.9):
+//   V = G_φ ψ + V_free,   K ψ = Gᵀ (M ⊗ I) V,   K = M D_φ G_φ = Gᵀ BlockDiag(h³ T) G (NaiveLaplacianOperator),
+// so that M D_φ V_free = Gᵀ (M ⊗ I) V − K ψ is the PCG's residual: D_φ V_free = 0 to the solver's tolerance (in the
+// M-weighted norm). The projection I − G_φ (D_φ G_φ)⁻¹ D_φ is orthogonal in the inner product ⟨a, b⟩_S =
+// Σ h³ aᵢᵀ Sᵢ bᵢ with S = μ² T⁻¹ (App. E); since S G_φ ψ = μ G ψ, that inner product of the two parts needs no T⁻¹.
+// Vector fields are interleaved, 3 floats per voxel, world units.
+// Boundary: G, G_φ, D_φ and K all take the same condition. Neumann (the default) leaves ψ free at the band's
+// boundary, so gradients of potentials that do not vanish there are recovered and V_free carries no μ-flux out of
+// the band; Dirichlet (ψ = 0 outside, paper Eq. 20) forces ψ to 0 across the thin band and moves part of any such
+// gradient into V_free (measured in docs/tasks.md).
+#include <vector>
+
+#include "gpisvdb/band/band.h"
+#include "gpisvdb/ops/first_order.h"
+#include "gpisvdb/solve/pcg.h"
+
+namespace gpisvdb {
+
+struct HodgeOptions {
+    /// PCG on K (Jacobi). 1e-5 by default: the right-hand side is a divergence, a difference of much larger terms,
+    /// and float storage stalls near 1e-6 on real bands (measured on the bunny).
+    PcgOptions solver{1e-5};
+    Boundary boundary = Boundary::Neumann;  ///< condition on ψ at the band's boundary (see above)
+};
+
+struct HodgeResult {
+    std::vector<float> potential;  ///< ψ (N), world units × the field's
+    std::vector<float> gradient;   ///< V_grad = G_φ ψ (3N)
+    std::vector<float> free;       ///< V_free = V − V_grad (3N)
+    PcgResult solver;
+    /// ‖M D_φ V_free‖ / ‖M D_φ V‖, evaluated from the stored parts (0 when D_φ V = 0).
+    double divergenceResidual = 0;
+    /// ⟨V_grad, V_free⟩_S / (‖V_grad‖_S ‖V_free‖_S), S = μ² T⁻¹ (T⁻¹ with eigenvalues floored at 1e-6 λmax);
+    /// 0 when either part vanishes.
+    double sInnerProduct = 0;
+};
+
+/// Splits V (3N) on the band. Throws Error when V has the wrong length or is not finite.
+HodgeResult hodgeDecomposition(const Band& band, const std::vector<float>& V, const HodgeOptions& options = {},
+                               const Progress& progress = {});
+
+/// ⟨a, b⟩_S over the band (a, b of length 3N); T⁻¹ as in HodgeResult::sInnerProduct.
+double sInnerProduct(const Band& band, const std::vector<float>& a, const std::vector<float>& b);
+
+/// Built-in test fields, about the μ-weighted centroid c of the band and the z axis (world units):
+///   Rotation: e_z × (x − c), tangent to any surface of revolution about that axis, so μ-divergence-free there;
+///   Gradient: grad_φ z = (T/μ) e_z, the GPIS gradient of the height;
+///   Mixed:    the sum of the two.
+enum class HodgePreset { Rotation, Gradient, Mixed };
+std::vector<float> hodgePreset(const Band& band, HodgePreset preset);
+
+}  // namespace gpisvdb
