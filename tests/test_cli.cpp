@@ -153,6 +153,12 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"regress " + bunny + " --data " + temp("far.csv", "100,0,0,1\n") + " -k 4 -o " + vdb + " --voxel-size 0.4 --sigma 2",
          "outside the band"},
         {"hodge " + bunny + " -o " + vdb, "exactly one of --field"},
+        {"band " + bunny + " --model regression --label-noise -1 -o " + vdb, "--label-noise"},
+        {"band " + bunny + " --model regression --training-points 0 -o " + vdb, "--training-points"},
+        {"band " + bunny + " --model regression --labels /nonexistent.csv -o " + vdb, "no such file"},
+        {"distance " + bunny + " --alpha 0 -o " + vdb, "--alpha"},
+        {"distance " + bunny + " --alpha 1 --grid-voxel-size 1e-7 -o " + vdb + " --voxel-size 0.4 --sigma 2", "--grid-voxel-size"},
+        {"distance " + bunny + " --alpha 1 --level 0.1 --mesh " + temp("m.stl") + " -o " + vdb, "extension"},
         {"hodge " + bunny + " --field /nonexistent.vdb -o " + vdb + " --voxel-size 0.4 --sigma 2", "cannot read the field"},
         {"hodge " + bunny + " --field " + temp("notvdb.vdb", "hello") + " -o " + vdb + " --voxel-size 0.4 --sigma 2",
          "cannot read the field"},
@@ -178,6 +184,9 @@ TEST_CASE("cli: usage errors exit 2; --help and --version exit 0", "[cli]") {
     CHECK(run("evaluate --help").code == 0);
     CHECK(run("geodesic --help").code == 0);
     CHECK(run("geodesic x.obj -o o.vdb").code == 2);  // --source is required
+    CHECK(run("band x.obj -o o.vdb --model nosuch").code == 2);
+    CHECK(run("distance x.obj -o o.vdb --mesh m.ply --alpha 1").code == 2);  // --mesh needs --level
+    for (const char* cmd : {"hodge", "distance"}) CHECK(run(std::string(cmd) + " --help").code == 0);
     CHECK(run("--version").out.find("gpisvdb") != std::string::npos);
 }
 
@@ -286,6 +295,56 @@ TEST_CASE("cli: hodge writes vec3 parts that sum to the input, and reads a field
     const Run noGrid = run("hodge " + bunny + " --field " + vdb + ":nosuch -o " + again + common);
     CHECK(noGrid.code == 1);
     CHECK_THAT(noGrid.err, Catch::Contains("no vector grid named 'nosuch'"));
+}
+
+TEST_CASE("cli: distance writes a dense smoothed_distance grid, a level set and its mesh", "[cli]") {
+    const std::string vdb = temp("distance.vdb"), json = temp("distance.json"), ply = temp("offset.ply");
+    const Run r = run("distance " + gpisvdb::test::dataPath("bunny.obj") + " --alpha 5 --grid-voxel-size 0.5 --level 0.3 --mesh " +
+                      ply + " -o " + vdb + " --report " + json + " --sigma 2 --voxel-size 0.4 --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    std::ifstream in(json);
+    const nlohmann::json report = nlohmann::json::parse(in);
+    CHECK(report["distance"]["points"].get<double>() > 1000);
+    CHECK(report["distance"]["mesh_triangles"].get<double>() > 100);
+    openvdb::initialize();
+    openvdb::io::File file(vdb);
+    file.open();
+    const auto d = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("smoothed_distance"));
+    const auto level = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("smoothed_distance_level"));
+    REQUIRE((d && level));
+    CHECK(level->getGridClass() == openvdb::GRID_LEVEL_SET);
+    CHECK(d->activeVoxelCount() == report["distance"]["points"].get<openvdb::Index64>());
+    for (auto it = d->cbeginValueOn(); it; ++it) CHECK(std::isfinite(*it));
+    CHECK(std::ifstream(ply).good());
+}
+
+TEST_CASE("cli: --model regression runs the band and green commands, from generated or read labels", "[cli]") {
+    const std::string cloud = gpisvdb::test::dataPath("sphere_20k_normal.xyz");
+    const std::string vdb = temp("regression.vdb"), json = temp("regression.json");
+    const Run r = run("green " + cloud + " --model regression --training-points 100 --source 0,0,1 --voxel-size 0.08 -o " + vdb +
+                      " --report " + json + " --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    std::ifstream in(json);
+    const nlohmann::json report = nlohmann::json::parse(in);
+    CHECK(report["parameters"]["model"] == "regression");
+    CHECK(report["parameters"]["training_labels"] == 300);
+    CHECK(report["parameters"]["iso"] == 0.0);
+    std::string labels = "x,y,z,label\n";
+    for (int i = 0; i < 40; ++i) {
+        const double t = 2 * M_PI * i / 40;
+        for (double z : {-0.6, 0.0, 0.6}) {
+            const double r0 = std::sqrt(1 - z * z);
+            for (auto [scale, label] : {std::pair{0.8, 1}, std::pair{1.0, 0}, std::pair{1.2, -1}})
+                labels += std::to_string(scale * r0 * std::cos(t)) + "," + std::to_string(scale * r0 * std::sin(t)) + "," +
+                          std::to_string(scale * z) + "," + std::to_string(label) + "\n";
+        }
+    }
+    const Run fromFile = run("band " + cloud + " --model regression --labels " + temp("labels.csv", labels) +
+                             " --voxel-size 0.08 -o " + vdb + " --quiet");
+    INFO(fromFile.err);
+    CHECK(fromFile.code == 0);
 }
 
 TEST_CASE("cli: spectrum writes eigen_000 ... with ascending eigenvalues and small residuals in the report", "[cli]") {

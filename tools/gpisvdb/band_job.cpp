@@ -40,7 +40,7 @@ constexpr double kBuildBytesPerVoxel = 400;
 
 void addBandFlags(CLI::App& cmd, BandFlags& f) {
     addModelFlags(cmd, f.model, true);
-    cmd.add_option("--iso", f.band.iso, "iso-value u of the surface phi = u")->capture_default_str();
+    cmd.add_option("--iso", f.band.iso, "iso-value u of the surface phi = u (default: 0.5 for the winding model, 0 for regression)");
     cmd.add_option("--eta", f.band.etaRelative, "band threshold: keep mu > eta x (median mu at the samples' voxels) (> 0)")
         ->capture_default_str();
     auto* vs = cmd.add_option("--voxel-size", f.band.voxelSize, "voxel size h in world units (default: min(h*, w_mu/2))");
@@ -65,12 +65,15 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
 
     // === Resolution (paper Eq. 25 and μ's width)
     ResolutionOptions ro;
-    ro.iso = flags.band.iso;
+    const double iso = std::isnan(flags.band.iso) ? job.model.model->naturalIso() : flags.band.iso;
+    if (!std::isfinite(iso)) throw ParameterError("--iso must be finite");
+    ro.iso = iso;
     ro.qmcSamples = flags.band.qmcSamples;
     ro.resolutionScale = flags.resolutionScale;
     ro.maxAnisotropy = flags.band.maxAnisotropy;
     job.resolution = chooseResolution(*job.model.model, job.model.input.samples, ro);
     job.options = flags.band;
+    job.options.iso = iso;
     if (!(job.options.voxelSize > 0)) job.options.voxelSize = job.resolution.h;
     const double h = job.options.voxelSize;
 
@@ -106,6 +109,12 @@ openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     meta.insertMeta("sigma", openvdb::DoubleMetadata(in.sigma));
     meta.insertMeta("smoothing_rel", openvdb::DoubleMetadata(flags.model.smoothingRel));
     meta.insertMeta("smoothing", openvdb::DoubleMetadata(job.model.smoothing));
+    meta.insertMeta("model", openvdb::StringMetadata(flags.model.model));
+    if (job.model.trainingSize) {
+        meta.insertMeta("training_labels", openvdb::Int64Metadata(openvdb::Int64(job.model.trainingSize)));
+        meta.insertMeta("label_noise", openvdb::DoubleMetadata(flags.model.labelNoise));
+        if (!flags.model.labels.empty()) meta.insertMeta("labels", openvdb::StringMetadata(flags.model.labels));
+    }
     meta.insertMeta("iso", openvdb::DoubleMetadata(job.options.iso));
     meta.insertMeta("eta_rel", openvdb::DoubleMetadata(job.options.etaRelative));
     meta.insertMeta("eta", openvdb::DoubleMetadata(job.result.stats.etaAbsolute));
@@ -134,6 +143,7 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
                    {"skipped_zero_area", in.degenerateSkipped}}},
         {"parameters", {{"sigma_rel", flags.model.sigmaRel}, {"sigma", in.sigma},
                         {"smoothing_rel", flags.model.smoothingRel}, {"smoothing", job.model.smoothing},
+                        {"model", flags.model.model}, {"training_labels", job.model.trainingSize},
                         {"iso", job.options.iso}, {"eta_rel", job.options.etaRelative}, {"eta", st.etaAbsolute},
                         {"voxel_size", job.options.voxelSize}, {"h_star", job.resolution.hStar},
                         {"mu_width", job.resolution.muWidth}, {"resolution_scale", flags.resolutionScale},

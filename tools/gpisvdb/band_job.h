@@ -2,6 +2,7 @@
 // What every band-based command shares: its flags, building the band from an input, the .vdb metadata and the
 // JSON report (DESIGN §5).
 #include <CLI/CLI.hpp>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
 
@@ -12,6 +13,7 @@
 namespace gpisvdb::cli {
 
 struct BandFlags {
+    BandFlags() { band.iso = std::numeric_limits<double>::quiet_NaN(); }  // unset: the model's own level
     ModelFlags model;
     BandOptions band;
     double resolutionScale = 1.0;

@@ -12,6 +12,7 @@
 
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/model/direct_gpis.h"
+#include "gpisvdb/model/regression_gpis.h"
 
 namespace gpisvdb::cli {
 
@@ -39,6 +40,15 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
         app.add_option("--beta", f.beta, "Barnes-Hut accuracy: a node stands in for its samples beyond beta × its radius (2 × beta for the covariance near the query) (> 1)")
             ->capture_default_str();
         app.add_flag("--exact", f.exact, "use the direct O(n) sum instead of Barnes-Hut");
+        app.add_option("--model", f.model, "GPIS model: winding (linearized winding number, paper Eq. 5) or regression (GP regression on labels, App. F; surface at phi = 0)")
+            ->check(CLI::IsMember({"winding", "regression"}))
+            ->capture_default_str();
+        app.add_option("--labels", f.labels, "regression: training file x,y,z,label[,noise] (+1 inside, 0 on, -1 outside); default: generated from the input");
+        app.add_option("--training-points", f.trainingPoints, "regression: surface points kept from the input (farthest-point sampling), 3 labels each")
+            ->capture_default_str();
+        app.add_option("--training-offset", f.trainingOffset, "regression: inside/outside label offset along the normal, relative to the training spacing sqrt(area/n)")
+            ->capture_default_str();
+        app.add_option("--label-noise", f.labelNoise, "regression: std of the labels (>= 0)")->capture_default_str();
     }
     app.add_option("--threads", f.threads, "worker threads (0 = all cores)")->capture_default_str();
     app.add_flag("--quiet", f.quiet, "no progress bar");
@@ -56,7 +66,22 @@ LoadedModel loadModel(const InputData& data, const ModelFlags& flags) {
     LoadedModel m;
     m.input = makeSamples(data, {flags.sigmaRel});
     m.smoothing = flags.smoothingRel * m.input.samples.lengthScale;
-    if (flags.exact) {
+    if (flags.model == "regression") {
+        // === Regression GPIS (App. F): labels generated from the samples, or read; kernel smoothing relative to
+        //     the training spacing, as the winding model's is to ℓ.
+        TrainingOptions to;
+        to.surfacePoints = flags.trainingPoints;
+        to.offsetRelative = flags.trainingOffset;
+        double spacing = 0;
+        LabelledPoints training = trainingFromSamples(m.input.samples, to, &spacing);
+        if (!flags.labels.empty()) training = readLabelledPoints(flags.labels);
+        RegressionGpisOptions ro;
+        ro.smoothing = flags.smoothingRel * spacing;
+        ro.labelNoise = flags.labelNoise;
+        m.smoothing = ro.smoothing;
+        m.trainingSize = training.size();
+        m.model = std::make_unique<RegressionGpis>(std::move(training), ro);
+    } else if (flags.exact) {
         m.model = std::make_unique<DirectGpis>(m.input.samples, m.smoothing);
     } else {
         BarnesHutOptions o;

@@ -16,6 +16,11 @@ struct ModelFlags {
     double smoothingRel = 0.4;  ///< --smoothing: kernel smoothing s relative to ℓ
     double beta = BarnesHutOptions{}.beta;  ///< --beta: Barnes–Hut opening criterion
     bool exact = false;         ///< --exact: direct O(n) sums instead of Barnes–Hut
+    std::string model = "winding";  ///< --model: winding (paper Eq. 5) or regression (App. F)
+    std::string labels;         ///< --labels: x,y,z,label[,noise] training file for the regression model
+    std::size_t trainingPoints = 300;  ///< --training-points: surface points kept for generated labels
+    double trainingOffset = 0.5;       ///< --training-offset: inside/outside offset, relative to the training spacing
+    double labelNoise = 0.05;          ///< --label-noise: std of the labels
     int threads = 0;            ///< --threads: 0 = all cores
     bool quiet = false;         ///< --quiet: no progress bar
 };
@@ -27,6 +32,7 @@ std::shared_ptr<void> limitThreads(int threads);
 struct LoadedModel {
     InputSamples input;
     double smoothing = 0;  ///< absolute s, world units
+    std::size_t trainingSize = 0;  ///< labelled points of the regression model (0: winding model)
     std::unique_ptr<GpisModel> model;
 };
 LoadedModel loadModel(const InputData& data, const ModelFlags& flags);

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
     cli::addRegress(app, action);
     cli::addGeodesic(app, action);
     cli::addHodge(app, action);
+    cli::addDistance(app, action);
     cli::addMesh(app, action);
     for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
     try {

@@ -27,10 +27,14 @@ SurfaceMesh meanSurface(const openvdb::FloatGrid& mean, double iso) {
     auto acc = phi->getAccessor();
     for (auto it = mean.cbeginValueOn(); it; ++it) acc.setValue(it.getCoord(), float(iso) - *it);
     openvdb::tools::signedFloodFill(phi->tree());
+    return isoSurface(*phi, 0.0);
+}
+
+SurfaceMesh isoSurface(const openvdb::FloatGrid& grid, double level) {
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> tris;
     std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(*phi, points, tris, quads, 0.0, 0.0);
+    openvdb::tools::volumeToMesh(grid, points, tris, quads, level, 0.0);
     SurfaceMesh m;
     m.vertices = std::move(points);
     for (const auto& t : tris) m.triangles.push_back({int(t[0]), int(t[1]), int(t[2])});

@@ -1,6 +1,7 @@
 #pragma once
 // A GPIS model: at any point x, Z(x) = (φ(x), ∇φ(x)) is Gaussian with a mean in R⁴ and a 4×4 covariance
 // (paper Eq. 5, 7; DESIGN §3.3). Every task takes a GpisModel and nothing else of the input.
+#include <memory>
 #include <vector>
 
 #include "gpisvdb/core/progress.h"
@@ -19,7 +20,9 @@ public:
     /// Mean and covariance at x (world units).
     virtual ValueGradient evaluate(const Vec3d& x) const = 0;
     /// Batch evaluation, parallel over points with TBB; results do not depend on the thread count.
-    std::vector<ValueGradient> evaluate(const std::vector<Vec3d>& xs, const Progress& progress = {}) const;
+    virtual std::vector<ValueGradient> evaluate(const std::vector<Vec3d>& xs, const Progress& progress = {}) const;
+    /// The level u of the surface φ = u in this model's convention: 1/2 for the winding number (1 inside, 0 outside).
+    virtual double naturalIso() const { return 0.5; }
 };
 
 }  // namespace gpisvdb

@@ -20,6 +20,10 @@ struct SurfaceMesh {
 /// appears where the band ends.
 SurfaceMesh meanSurface(const openvdb::FloatGrid& mean, double iso);
 
+/// Iso-surface {f = level} of a grid whose active voxels cover the region of interest (a dense field such as the
+/// smoothed distance), by OpenVDB's volumeToMesh. Vertices in world units.
+SurfaceMesh isoSurface(const openvdb::FloatGrid& grid, double level);
+
 /// Σ of the triangles' areas, world units².
 double surfaceArea(const SurfaceMesh& mesh);
 
