@@ -1,6 +1,7 @@
 // gpisvdb evaluate INPUT --at POINTS.xyz -o OUT.csv: mean and covariance of (φ, ∇φ) at query points.
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "commands.h"
@@ -45,7 +46,7 @@ void addEvaluate(CLI::App& app, Action& action) {
     struct Args {
         std::string input, at, output;
         ModelFlags flags;
-        double iso = 0.5;
+        double iso = std::numeric_limits<double>::quiet_NaN();  // unset: the model's own level
         int qmc = 512;
     };
     auto a = std::make_shared<Args>();
@@ -53,7 +54,7 @@ void addEvaluate(CLI::App& app, Action& action) {
     cmd->add_option("--at", a->at, "query points, one 'x y z' per line (world units)")->required();
     cmd->add_option("-o,--output", a->output, "output CSV")->required();
     addModelFlags(*cmd, a->flags, true);
-    cmd->add_option("--iso", a->iso, "iso-value u of the surface phi = u (for mu and T)")->capture_default_str();
+    cmd->add_option("--iso", a->iso, "iso-value u of the surface phi = u, for mu and T (default: 0.5 winding, 0 regression)");
     cmd->add_option("--qmc", a->qmc, "QMC points S for mu and T (>= 1)")->capture_default_str();
     cmd->footer("Columns: x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33 (c: covariance of\n"
                 "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row), then the Kac-Rice surface\n"
@@ -64,10 +65,11 @@ void addEvaluate(CLI::App& app, Action& action) {
             const auto threads = limitThreads(a->flags.threads);
             const InputData data = readInput(a->input);
             const std::vector<Vec3d> xs = readQueryPoints(a->at);
-            if (!std::isfinite(a->iso)) throw ParameterError("--iso must be finite");
+            if (!std::isnan(a->iso) && !std::isfinite(a->iso)) throw ParameterError("--iso must be finite");
             const QmcRule rule(a->qmc);
             AtomicOutput out(a->output);
             const LoadedModel m = loadModel(data, a->flags);
+            const double iso = std::isnan(a->iso) ? m.model->naturalIso() : a->iso;
             const auto values = m.model->evaluate(xs, makeProgress(a->flags.quiet));
             std::ofstream csv(out.tempPath());
             csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz\n"
@@ -78,7 +80,7 @@ void addEvaluate(CLI::App& app, Action& action) {
                 for (int k = 0; k < 4; ++k) csv << ',' << v.mean[k];
                 for (int r = 0; r < 4; ++r)
                     for (int c = r; c < 4; ++c) csv << ',' << v.cov(r, c);
-                const SurfaceDensity d = kacRice(v, a->iso, rule);
+                const SurfaceDensity d = kacRice(v, iso, rule);
                 csv << ',' << d.mu;
                 for (int r = 0; r < 3; ++r)
                     for (int c = r; c < 3; ++c) csv << ',' << d.T(r, c);

@@ -36,7 +36,7 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
     app.add_option("--sigma", f.sigmaRel, "noise std σ of vertices/points, relative to the length scale ℓ (> 0)")
         ->capture_default_str();
     if (withModel) {
-        app.add_option("--smoothing", f.smoothingRel, "kernel smoothing s, relative to ℓ (> 0)")->capture_default_str();
+        app.add_option("--smoothing", f.smoothingRel, "kernel smoothing s, relative to ℓ (regression: to the training spacing) (> 0)")->capture_default_str();
         app.add_option("--beta", f.beta, "Barnes-Hut accuracy: a node stands in for its samples beyond beta × its radius (2 × beta for the covariance near the query) (> 1)")
             ->capture_default_str();
         app.add_flag("--exact", f.exact, "use the direct O(n) sum instead of Barnes-Hut");

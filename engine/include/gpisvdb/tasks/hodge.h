@@ -8,7 +8,7 @@
 // Boundary: G, G_φ, D_φ and K all take the same condition. Neumann (the default) leaves ψ free at the band's
 // boundary, so gradients of potentials that do not vanish there are recovered and V_free carries no μ-flux out of
 // the band; Dirichlet (ψ = 0 outside, paper Eq. 20) forces ψ to 0 across the thin band and moves part of any such
-// gradient into V_free (measured in docs/tasks.md).
+// gradient into V_free (measured in docs/hodge.md).
 #include <vector>
 
 #include "gpisvdb/band/band.h"
