@@ -8,6 +8,9 @@
 
 #include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
+#include <vtkPolyData.h>
+#include <vtkSmartPointer.h>
+#include <vtkXMLPolyDataReader.h>
 
 #include "gpisvdb/output/mean_surface.h"
 #include "helpers.h"
@@ -331,6 +334,21 @@ TEST_CASE("cli: --model regression runs the band and green commands, from genera
     CHECK(report["parameters"]["model"] == "regression");
     CHECK(report["parameters"]["training_labels"] == 300);
     CHECK(report["parameters"]["iso"] == 0.0);
+    // mesh takes the level from the file: the regression surface φ = 0 is the unit sphere (φ = 0.5 lies inside it).
+    const std::string vtp = temp("regression.vtp");
+    REQUIRE(run("mesh " + vdb + " --grid mu -o " + vtp + " --quiet").code == 0);
+    auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
+    reader->SetFileName(vtp.c_str());
+    reader->Update();
+    vtkPolyData* poly = reader->GetOutput();
+    REQUIRE(poly->GetNumberOfPoints() > 100);
+    double radius = 0;
+    for (vtkIdType i = 0; i < poly->GetNumberOfPoints(); ++i) {
+        double p[3];
+        poly->GetPoint(i, p);
+        radius += std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    }
+    CHECK(radius / double(poly->GetNumberOfPoints()) == Approx(1.0).epsilon(0.04));  // 1.03 measured; u = 0.5 gives ≈ 0.94
     std::string labels = "x,y,z,label\n";
     for (int i = 0; i < 40; ++i) {
         const double t = 2 * M_PI * i / 40;

@@ -1,4 +1,5 @@
 // gpisvdb mesh FILE.vdb --grid NAME -o OUT.ply|OUT.vtp: the mean surface with a grid sampled at its vertices.
+#include <limits>
 #include <iostream>
 
 #include "commands.h"
@@ -26,19 +27,19 @@ void addMesh(CLI::App& app, Action& action) {
     struct Args {
         std::string input, output;
         std::vector<std::string> grids;
-        double iso = 0.5;
+        double iso = std::numeric_limits<double>::quiet_NaN();  // unset: the file's 'iso' metadata, else 0.5
         bool quiet = false;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("FILE", a->input, "a .vdb written by gpisvdb (needs the 'mean' grid)")->required();
     cmd->add_option("--grid", a->grids, "grid(s) to sample at the vertices (float or vec3), e.g. mu, green")->required();
     cmd->add_option("-o,--output", a->output, "output mesh, .ply or .vtp")->required();
-    cmd->add_option("--iso", a->iso, "iso-value u of the mean surface gamma = u")->capture_default_str();
+    cmd->add_option("--iso", a->iso, "iso-value u of the mean surface gamma = u (default: the file's 'iso', else 0.5)");
     cmd->add_flag("--quiet", a->quiet, "no summary line");
     cmd->footer("Example:\n  gpisvdb mesh green.vdb --grid green --grid mu -o green.ply");
     cmd->callback([&action, a] {
         action = [a] {
-            if (!std::isfinite(a->iso)) throw ParameterError("--iso must be finite");
+            if (!std::isnan(a->iso) && !std::isfinite(a->iso)) throw ParameterError("--iso must be finite");
             const MeshFormat format = meshFormatOf(a->output);
             openvdb::initialize();
             openvdb::io::File file(a->input);
@@ -46,6 +47,12 @@ void addMesh(CLI::App& app, Action& action) {
                 file.open();
             } catch (const openvdb::Exception& e) {
                 throw InputError(a->input + ": cannot be read as an OpenVDB file (" + e.what() + ")");
+            }
+            if (std::isnan(a->iso)) {  // the level the band was built at (0 for the regression model)
+                const auto meta = file.getMetadata();
+                const auto stored = meta ? (*meta)["iso"] : openvdb::Metadata::Ptr();
+                const auto* value = stored ? dynamic_cast<const openvdb::DoubleMetadata*>(stored.get()) : nullptr;
+                a->iso = value ? value->value() : 0.5;
             }
             const auto mean = openvdb::gridPtrCast<openvdb::FloatGrid>(readGrid(file, a->input, "mean"));
             if (!mean) throw InputError(a->input + ": grid 'mean' is not a float grid");
