@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <limits>
 
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/point_data.h"
