@@ -97,6 +97,14 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     return job;
 }
 
+void requireConverged(const PcgResult& r, const PcgOptions& options) {
+    if (r.converged) return;
+    const std::string at = "the PCG stopped at relative residual " + numberText(r.relativeResidual) + " after " +
+                           std::to_string(r.iterations) + " iterations";
+    if (r.iterations >= options.maxIterations) throw Error(at + ": raise --max-iterations");
+    throw Error(at + ", as close as float storage gets: use --tolerance " + numberText(2 * r.relativeResidual) + " or larger");
+}
+
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     openvdb::MetaMap meta;
     const auto& in = job.model.input;

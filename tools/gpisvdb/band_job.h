@@ -8,6 +8,7 @@
 
 #include "common.h"
 #include "gpisvdb/band/build_band.h"
+#include "gpisvdb/solve/pcg.h"
 #include "gpisvdb/stencil/resolution.h"
 
 namespace gpisvdb::cli {
@@ -34,6 +35,9 @@ struct BandJob {
 
 /// Model, resolution, memory check, band: the first half of every band command.
 BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress);
+
+/// Throws an Error naming the flag to change when a PCG solve stopped short of its tolerance.
+void requireConverged(const PcgResult& result, const PcgOptions& options);
 
 /// File metadata: version, command line, every parameter relative and absolute, input, band size and mass.
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags);

@@ -63,13 +63,7 @@ void addGreen(CLI::App& app, Action& action) {
             const auto tSolve = Clock::now();
             const GreenResult g = greensFunction(band, *L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
-            if (!g.solver.converged) {
-                const std::string at = "the PCG stopped at relative residual " + numberText(g.solver.relativeResidual) +
-                                       " after " + std::to_string(g.solver.iterations) + " iterations";
-                if (g.solver.iterations >= a->solver.maxIterations) throw Error(at + ": raise --max-iterations");
-                throw Error(at + ", as close as float storage gets: use --tolerance " +
-                            numberText(2 * g.solver.relativeResidual) + " or larger");
-            }
+            requireConverged(g.solver, a->solver);
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             const openvdb::Coord y = band.coord[g.sourceIndex];
             meta.insertMeta("green_source", openvdb::Vec3DMetadata(openvdb::Vec3d(a->source[0], a->source[1], a->source[2])));

@@ -118,12 +118,7 @@ void addHodge(CLI::App& app, Action& action) {
             const auto tSolve = Clock::now();
             const HodgeResult r = hodgeDecomposition(band, V, ho, progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
-            if (!r.solver.converged) {
-                const std::string at = "the PCG stopped at relative residual " + numberText(r.solver.relativeResidual) +
-                                       " after " + std::to_string(r.solver.iterations) + " iterations";
-                if (r.solver.iterations >= a->solver.maxIterations) throw Error(at + ": raise --max-iterations");
-                throw Error(at + ", as close as float storage gets: use --tolerance " + numberText(2 * r.solver.relativeResidual) + " or larger");
-            }
+            requireConverged(r.solver, a->solver);
 
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             meta.insertMeta("hodge_field", openvdb::StringMetadata(a->preset.empty() ? a->field : "preset:" + a->preset));
