@@ -1,11 +1,13 @@
 #!/usr/bin/python3
 """Plots the Dirichlet-energy validation (paper Fig. 6 top) from bench/results/energy*.json.
 
-Usage: bench/plot_energy.py [--out docs/images/energy.png]   (needs Debian's python3-matplotlib)
+Usage: bench/plot_energy.py [--out docs/images/energy.png] [--footer TEXT]   (needs Debian's python3-matplotlib)
+(bench/plots.py calls it with a footer naming the machine, threads and commands.)
 """
 import argparse
 import json
 import os
+import textwrap
 
 import matplotlib
 
@@ -14,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--out", default="docs/images/energy.png")
+parser.add_argument("--footer", default=None, help="text line(s) below the axes")
 args = parser.parse_args()
 
 runs = [("bench/results/energy.json", "h = h* (Eq. 25)", "-"), ("bench/results/energy_fine.json", "h = 1.5 w_mu", "--")]
@@ -34,6 +37,11 @@ ax.set_title("Expected Dirichlet energy on a unit-sphere soup (1280 triangles)\n
 ax.invert_xaxis()
 ax.grid(True, which="both", alpha=0.3)
 ax.legend(fontsize=7)
-fig.tight_layout()
+if args.footer:
+    text = textwrap.fill(args.footer, width=int(fig.get_size_inches()[0] * 72 / (6.5 * 0.55)))
+    fig.tight_layout(rect=(0, (0.12 + (text.count("\n") + 1) * 0.125) / fig.get_size_inches()[1], 1, 1))
+    fig.text(0.01, 0.01, text, fontsize=6.5, ha="left", va="bottom", color="0.25", family="DejaVu Sans Mono")
+else:
+    fig.tight_layout()
 fig.savefig(args.out)
 print("wrote", args.out)

@@ -8,54 +8,21 @@
 
 #include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
+#include <vtkDataArray.h>
+#include <vtkPointData.h>
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
 #include <vtkXMLPolyDataReader.h>
 
 #include "gpisvdb/output/mean_surface.h"
+#include "cli_run.h"
+#include "gpisvdb/input/read_input.h"
+#include "png_stats.h"
 #include "helpers.h"
 
 namespace fs = std::filesystem;
 
-namespace {
-
-struct Run {
-    int code = -1;
-    std::string out, err;
-};
-
-Run run(const std::string& args) {
-    const fs::path dir = gpisvdb::test::scratchDir();
-    const std::string out = (dir / "gpisvdb_cli_stdout").string(), err = (dir / "gpisvdb_cli_stderr").string();
-    const int status = std::system((std::string(GPISVDB_EXE) + " " + args + " >" + out + " 2>" + err + " </dev/null").c_str());
-    Run r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::ifstream o(out), e(err);
-    std::stringstream so, se;
-    so << o.rdbuf();
-    se << e.rdbuf();
-    r.out = so.str();
-    r.err = se.str();
-    return r;
-}
-
-std::string temp(const std::string& name, const std::string& content = "") {
-    const fs::path p = gpisvdb::test::scratchDir() / ("gpisvdb_cli_" + name);
-    if (!content.empty()) std::ofstream(p) << content;
-    return p.string();
-}
-
-std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
-
-bool leftovers(const std::string& output) {
-    const fs::path p(output);
-    if (fs::exists(p)) return true;
-    for (const auto& e : fs::directory_iterator(p.parent_path()))
-        if (e.path().filename().string().rfind(p.filename().string() + ".tmp-", 0) == 0) return true;
-    return false;
-}
-
-}  // namespace
+using namespace gpisvdb::test::cli;
 
 TEST_CASE("cli: info describes the bunny", "[cli]") {
     const Run r = run("info " + gpisvdb::test::dataPath("bunny.obj"));
@@ -162,9 +129,9 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"distance " + bunny + " --alpha 0 -o " + vdb, "--alpha"},
         {"distance " + bunny + " --alpha 1 --grid-voxel-size 1e-7 -o " + vdb + " --voxel-size 0.4 --sigma 2", "--grid-voxel-size"},
         {"distance " + bunny + " --alpha 1 --level 0.1 --mesh " + temp("m.stl") + " -o " + vdb, "extension"},
-        {"hodge " + bunny + " --field /nonexistent.vdb -o " + vdb + " --voxel-size 0.4 --sigma 2", "cannot read the field"},
+        {"hodge " + bunny + " --field /nonexistent.vdb -o " + vdb + " --voxel-size 0.4 --sigma 2", "no such file"},
         {"hodge " + bunny + " --field " + temp("notvdb.vdb", "hello") + " -o " + vdb + " --voxel-size 0.4 --sigma 2",
-         "cannot read the field"},
+         "cannot be read as an OpenVDB file"},
         {"hodge " + bunny + " --preset mixed --tolerance -1 -o " + vdb, "--tolerance"},
     };
     for (const Case& c : cases) {
@@ -191,21 +158,6 @@ TEST_CASE("cli: usage errors exit 2; --help and --version exit 0", "[cli]") {
     CHECK(run("distance x.obj -o o.vdb --mesh m.ply --alpha 1").code == 2);  // --mesh needs --level
     for (const char* cmd : {"hodge", "distance"}) CHECK(run(std::string(cmd) + " --help").code == 0);
     CHECK(run("--version").out.find("gpisvdb") != std::string::npos);
-}
-
-TEST_CASE("cli: demo writes a VDB with the mean and stddev grids", "[cli]") {
-    const std::string dir = temp("demo");
-    fs::remove_all(dir);
-    const Run r = run("demo -o " + dir + " --resolution 12 --quiet");
-    REQUIRE(r.code == 0);
-    CHECK(fs::exists(dir + "/gpis.vdb"));
-    const int status = std::system(("vdb_print " + dir + "/gpis.vdb > " + dir + "/print.txt 2>&1").c_str());
-    CHECK(WEXITSTATUS(status) == 0);
-    std::ifstream in(dir + "/print.txt");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    CHECK_THAT(ss.str(), Catch::Contains("mean"));
-    CHECK_THAT(ss.str(), Catch::Contains("stddev"));
 }
 
 TEST_CASE("cli: band writes a readable .vdb and a JSON report with the documented fields", "[cli]") {
@@ -498,4 +450,144 @@ TEST_CASE("cli: geodesic writes 'geodesic' and a bunny path between far points t
     vs << v.rdbuf();
     CHECK_THAT(vs.str(), Catch::Contains("<Lines>"));
     CHECK_THAT(vs.str(), Catch::Contains("Name=\"geodesic\""));
+}
+
+TEST_CASE("cli: every subcommand has --help with an example, and refuses unknown flags and missing arguments", "[cli]") {
+    const std::vector<std::string> commands = {"info", "evaluate", "demo", "band", "green", "spectrum", "regress",
+                                               "geodesic", "hodge", "distance", "mesh", "render", "sample"};
+    const Run top = run("--help");
+    CHECK(top.code == 0);
+    CHECK_THAT(top.out, Catch::Contains("Exit codes"));
+    for (const std::string& c : commands) {
+        INFO(c);
+        const Run help = run(c + " --help");
+        CHECK(help.code == 0);
+        CHECK_THAT(help.out, Catch::Contains("Example"));
+        if (c != "info") CHECK_THAT(help.out, Catch::Contains("--threads"));
+        CHECK(run(c + " --no-such-flag").code == 2);
+        if (c != "demo") CHECK(run(c).code == 2);  // every other command needs an input
+    }
+    CHECK(run("nosuchcommand").code == 2);
+    const Run version = run("--version");
+    CHECK(version.code == 0);
+    CHECK_THAT(version.out, Catch::Contains(GPISVDB_VERSION));
+}
+
+TEST_CASE("cli: an interrupted run exits 130 and leaves no file at the output path", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
+    const std::string vdb = temp("interrupted.vdb"), json = temp("interrupted.json");
+    fs::remove(vdb);
+    // A band of ~1.5 M voxels: minutes of work, interrupted after one second.
+    const Run band = runInterrupted("band " + bunny + " -o " + vdb + " --report " + json + " --quiet", 1);
+    INFO(band.err);
+    CHECK(band.code == 130);
+    CHECK(lines(band.err) == 1);
+    CHECK_FALSE(leftovers(vdb));
+    CHECK_FALSE(leftovers(json));
+}
+
+namespace {
+/// A small band of the bunny with a Green's function and a geodesic path, shared by the render and sample tests.
+struct SmallResult {
+    std::string vdb, paths;
+};
+const SmallResult& smallResult() {
+    static const SmallResult r = [] {
+        SmallResult s{temp("small_geo.vdb"), temp("small_geo_path.vtp")};
+        const Run g = run("geodesic " + gpisvdb::test::dataPath("bunny.obj") + " --source 0.5,6,1 --target -2,9,0 -o " + s.vdb +
+                          " --paths " + s.paths + " --sigma 2 --voxel-size 0.4 --quiet");
+        REQUIRE(g.code == 0);
+        return s;
+    }();
+    return r;
+}
+}  // namespace
+
+TEST_CASE("cli: render writes a picture that is not blank, with a slice panel beside the surface", "[cli][render]") {
+    const SmallResult& s = smallResult();
+    const std::string png = temp("render.png");
+    fs::remove(png);
+    const Run r = run("render " + s.vdb + " --grid geodesic --paths " + s.paths + " --size 300,240 -o " + png + " --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    gpisvdb::test::PngStats st = gpisvdb::test::pngStats(png);
+    REQUIRE(st.readable);
+    CHECK(st.width == 300);
+    CHECK(st.height == 240);
+    CHECK(st.colours > 100);
+    CHECK(st.nonWhite > 0.1);
+    const Run sliced = run("render " + s.vdb + " --grid mu --log --colormap magma --slice z=0.5 --size 300,240 -o " + png + " --quiet");
+    INFO(sliced.err);
+    REQUIRE(sliced.code == 0);
+    st = gpisvdb::test::pngStats(png);
+    CHECK(st.width == 600);
+    CHECK(st.colours > 100);
+}
+
+TEST_CASE("cli: sample writes one value per input vertex or point, for every grid by default", "[cli]") {
+    const SmallResult& s = smallResult();
+    const std::string vtp = temp("sampled.vtp");
+    const Run r = run("sample " + s.vdb + " --at " + gpisvdb::test::dataPath("bunny.obj") + " -o " + vtp + " --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
+    reader->SetFileName(vtp.c_str());
+    reader->Update();
+    vtkPolyData* pd = reader->GetOutput();
+    const gpisvdb::InputData bunny = gpisvdb::readInput(gpisvdb::test::dataPath("bunny.obj"));
+    CHECK(pd->GetNumberOfPoints() == vtkIdType(bunny.soup->vertices.size()));
+    CHECK(pd->GetNumberOfPolys() == vtkIdType(bunny.soup->triangles.size()));
+    for (const char* a : {"mu", "mean", "stddev", "geodesic", "normal", "T_diag"}) {
+        INFO(a);
+        REQUIRE(pd->GetPointData()->GetArray(a));
+        CHECK(pd->GetPointData()->GetArray(a)->GetNumberOfTuples() == pd->GetNumberOfPoints());
+    }
+    CHECK(pd->GetPointData()->GetArray("normal")->GetNumberOfComponents() == 3);
+    // The mean field at the input's own vertices is near the iso-value 0.5 (the data lie on the surface).
+    vtkDataArray* mean = pd->GetPointData()->GetArray("mean");
+    double sum = 0;
+    for (vtkIdType i = 0; i < mean->GetNumberOfTuples(); ++i) sum += mean->GetTuple1(i);
+    CHECK(std::abs(sum / double(mean->GetNumberOfTuples()) - 0.5) < 0.1);
+
+    // A point cloud: one value per point, the points as vertex cells; a chosen grid only.
+    const std::string xyz = temp("sample_points.xyz", "0.5 6 1 0 0 1\n-2 9 0 0 1 0\n0 7 0 1 0 0\n");
+    const std::string ply = temp("sampled_points.ply");
+    REQUIRE(run("sample " + s.vdb + " --at " + xyz + " --grid mu -o " + ply + " --quiet").code == 0);
+    std::ifstream in(ply, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    CHECK_THAT(ss.str(), Catch::Contains("element vertex 3\n"));
+    CHECK_THAT(ss.str(), Catch::Contains("property float mu\n"));
+    CHECK_THAT(ss.str(), !Catch::Contains("property float stddev"));
+}
+
+TEST_CASE("cli: --half stores 16-bit grids that vdb_print and pyopenvdb read, values within half precision", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
+    const std::string full = temp("full.vdb"), half = temp("half.vdb");
+    const std::string common = "band " + bunny + " --sigma 2 --voxel-size 0.4 --quiet -o ";
+    REQUIRE(run(common + full).code == 0);
+    REQUIRE(run(common + half + " --half").code == 0);
+    CHECK(fs::file_size(half) < 0.9 * double(fs::file_size(full)));  // Blosc already packs the floats: ~16 % smaller
+    CHECK(runShell("vdb_print -l " + half).code == 0);
+    const std::string script = temp("half.py");
+    std::ofstream(script) << "import sys, pyopenvdb as vdb\n"
+                             "f, _ = vdb.readAll(sys.argv[1]); h, meta = vdb.readAll(sys.argv[2])\n"
+                             "F = {g.name: g for g in f}; H = {g.name: g for g in h}\n"
+                             "print('half_float', meta['half_float'])\n"
+                             "worst = 0\n"
+                             "for name in ('mu', 'mean', 'stddev'):\n"
+                             "    acc = H[name].getConstAccessor()\n"
+                             "    for item in F[name].citerOnValues():\n"
+                             "        v = item.value; w = acc.getValue(item.min)\n"
+                             "        worst = max(worst, abs(v - w) / max(abs(v), 1e-3))\n"
+                             "print('worst', worst)\n";
+    const Run py = runShell("/usr/bin/python3 " + script + " " + full + " " + half);
+    INFO(py.out << py.err);
+    REQUIRE(py.code == 0);
+    CHECK_THAT(py.out, Catch::Contains("half_float True"));
+    const auto at = py.out.find("worst ");
+    REQUIRE(at != std::string::npos);
+    const double worst = std::stod(py.out.substr(at + 6));
+    CHECK(worst > 0);       // the values were rounded ...
+    CHECK(worst < 2e-3);    // ... to half precision (2^-11 relative)
 }

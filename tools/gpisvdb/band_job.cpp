@@ -52,6 +52,7 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
         ->capture_default_str();
     cmd.add_option("--max-memory", f.maxMemory, "refuse bands needing more memory than this (default: half the RAM)");
     cmd.add_option("--report", f.report, "write a JSON report (parameters, band, timings, memory)");
+    cmd.add_flag("--half", f.vdb.halfFloat, "store the .vdb grids as 16-bit floats (half the file, about 3 significant digits)");
 }
 
 BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress) {
@@ -135,6 +136,7 @@ openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     meta.insertMeta("max_anisotropy", openvdb::DoubleMetadata(job.options.maxAnisotropy));
     meta.insertMeta("band_voxels", openvdb::Int64Metadata(openvdb::Int64(job.result.band.size())));
     meta.insertMeta("band_mass", openvdb::DoubleMetadata(job.result.band.mass()));
+    meta.insertMeta("half_float", openvdb::BoolMetadata(flags.vdb.halfFloat));
     return meta;
 }
 

@@ -8,6 +8,7 @@
 
 #include "common.h"
 #include "gpisvdb/band/build_band.h"
+#include "gpisvdb/output/write_vdb.h"
 #include "gpisvdb/solve/pcg.h"
 #include "gpisvdb/stencil/resolution.h"
 
@@ -20,6 +21,7 @@ struct BandFlags {
     double resolutionScale = 1.0;
     std::string maxMemory;  ///< "8G", "512M", "1e9"; empty: half the RAM
     std::string report;     ///< JSON report path; empty: none
+    VdbWriteOptions vdb;    ///< --half
 };
 void addBandFlags(CLI::App& cmd, BandFlags& flags);
 

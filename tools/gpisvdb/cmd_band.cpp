@@ -30,7 +30,7 @@ void addBand(CLI::App& app, Action& action) {
             std::unique_ptr<AtomicOutput> reportOut;
             if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
             const BandJob job = runBand(data, a->flags, makeProgress(a->flags.model.quiet));
-            writeBandVdb(job.result.band, out.tempPath(), bandMetadata(job, a->flags));
+            writeBandVdb(job.result.band, out.tempPath(), bandMetadata(job, a->flags), {}, {}, a->flags.vdb);
             out.commit();
             const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             if (reportOut) {

@@ -1,98 +1,317 @@
-// gpisvdb demo [-o DIR]: the main job on the built-in input. A torus soup with its top cut away (data
-// missing there), its GPIS evaluated on a voxel grid around it, and the mean field γ and the standard
-// deviation √c₀₀ written as OpenVDB grids.
+// gpisvdb demo [-o DIR]: the main job on the built-in input, the idea of paper Fig. 8. A torus soup with a slab of
+// its ring cut away (data missing there) is processed at three σ: the band, the Green's function, the geodesic
+// distance with a shortest path between points on either side of the gap, and the lowest eigenfunctions. Near the
+// data every result follows the mean surface; across the gap it depends on σ (at small σ the GPIS is not closed
+// there and the path goes round the ring, at larger σ it bridges the gap and the path crosses it).
 #include <chrono>
+#include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
-#include <openvdb/openvdb.h>
+#include <sstream>
 
+#include "band_job.h"
 #include "commands.h"
-#include "common.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/procedural.h"
+#include "gpisvdb/ops/laplacian.h"
+#include "gpisvdb/output/mean_surface.h"
+#include "gpisvdb/output/paths.h"
+#include "gpisvdb/output/render.h"
+#include "gpisvdb/tasks/geodesic.h"
+#include "gpisvdb/tasks/green.h"
+#include "spectrum_job.h"
 
 namespace gpisvdb::cli {
 
-void addDemo(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("demo", "run the GPIS on the built-in shape (a torus with a gap) and write its fields");
-    struct Args {
-        std::string dir = "demo-output";
-        int resolution = 48;
-        ModelFlags flags;
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// === The built-in input: torus (ring 1, tube 0.4) without the slab x > 0, |y| < 0.3
+const Vec3d kGapLo(0, -0.3, -1), kGapHi(2, 0.3, 1);
+constexpr double kDeg = 3.14159265358979323846 / 180;
+// Source and target on top of the tube, 40° either side of the gap's middle: the short way crosses the gap.
+const Vec3d kSource(std::cos(-40 * kDeg), std::sin(-40 * kDeg), 0.4);
+const Vec3d kTarget(std::cos(40 * kDeg), std::sin(40 * kDeg), 0.4);
+
+TriangleSoup demoShape() { return cutBox(torus(64, 24), kGapLo, kGapHi); }
+
+bool crossesGap(const GeodesicPath& p) {
+    for (const Vec3d& x : p.points)
+        if (x.x() > 0.5 && std::abs(x.y()) < 0.5 * (kGapHi.y() - kGapLo.y())) return true;
+    return false;
+}
+
+struct DemoArgs {
+    std::string dir = "demo-output";
+    std::vector<double> sigmas{0.5, 1.5, 3.0};
+    double voxelSize = 0.04;
+    int eigenCount = 4;
+    int pictureWidth = 420;
+    int threads = 0;
+    bool quiet = false;
+    bool half = false;
+};
+
+/// One σ's results, kept for the pictures and the summary.
+struct SigmaRun {
+    double sigmaRel = 0, sigma = 0;
+    std::string subdir;
+    std::size_t voxels = 0;
+    double mass = 0;
+    int greenIterations = 0;
+    GeodesicPath path;
+    bool pathCrossesGap = false;
+    std::vector<double> eigenvalues;
+    SurfaceMesh surface;
+    openvdb::FloatGrid::Ptr mu;
+    nlohmann::json timings;
+};
+
+std::string sigmaText(double s) {
+    std::ostringstream o;
+    o << s;
+    return o.str();
+}
+
+SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, const fs::path& tmp, const Progress& progress) {
+    SigmaRun run;
+    run.sigmaRel = sigmaRel;
+    run.subdir = "sigma-" + sigmaText(sigmaRel);
+    fs::create_directory(tmp / run.subdir);
+    BandFlags flags;
+    flags.model.sigmaRel = sigmaRel;
+    flags.model.quiet = a.quiet;
+    flags.band.voxelSize = a.voxelSize;
+    flags.vdb.halfFloat = a.half;
+
+    // === Band
+    const BandJob job = runBand(data, flags, progress);
+    const Band& band = job.result.band;
+    run.sigma = job.model.input.sigma;
+    run.voxels = band.size();
+    run.mass = band.mass();
+
+    // === Green's function from the source (Alg. 1)
+    auto t = Clock::now();
+    const LaplacianOperator L(band);
+    PcgOptions pcg;
+    pcg.tolerance = 1e-5;  // float storage stalls near 1e-6 on the widest band; pictures need far less
+    const GreenResult green = greensFunction(band, L, kSource, pcg, progress);
+    requireConverged(green.solver, pcg);
+    run.greenIterations = green.solver.iterations;
+    const double secondsGreen = since(t);
+
+    // === Geodesic distance from the source, shortest path from the target (Eq. 28)
+    t = Clock::now();
+    const GeodesicResult geo = geodesicDistance(band, {kSource}, {kTarget}, {}, progress);
+    std::vector<float> U(band.size());
+    for (std::size_t i = 0; i < band.size(); ++i) U[i] = float(geo.march.distance[i]);
+    run.path = geo.paths.front();
+    run.pathCrossesGap = crossesGap(run.path);
+    const double secondsGeodesic = since(t);
+
+    // === Lowest eigenpairs (Sec. 10.1)
+    t = Clock::now();
+    EigenOptions eo;
+    eo.count = a.eigenCount;
+    const EigenResult eigen = runSpectrum(job, eo, progress);
+    const double secondsSpectrum = since(t);
+    std::vector<std::vector<float>> vectors(std::size_t(eigen.values.size()));
+    std::vector<NamedChannel> channels{{"green", &green.values}, {"geodesic", &U}};
+    for (Eigen::Index i = 0; i < eigen.values.size(); ++i) {
+        vectors[std::size_t(i)].assign(eigen.vectors.col(i).data(), eigen.vectors.col(i).data() + eigen.vectors.rows());
+        channels.push_back({eigenGridName(int(i)), &vectors[std::size_t(i)]});
+        run.eigenvalues.push_back(eigen.values(i));
+    }
+
+    // === Outputs: the .vdb, the mean surface with every scalar field, the path
+    t = Clock::now();
+    const openvdb::GridPtrVec grids = bandGrids(band, channels);
+    openvdb::MetaMap meta = bandMetadata(job, flags);
+    meta.insertMeta("green_source", openvdb::Vec3DMetadata(openvdb::Vec3d(kSource.data())));
+    meta.insertMeta("geodesic_target", openvdb::Vec3DMetadata(openvdb::Vec3d(kTarget.data())));
+    for (std::size_t i = 0; i < run.eigenvalues.size(); ++i)
+        meta.insertMeta(eigenGridName(int(i)) + "_eigenvalue", openvdb::DoubleMetadata(run.eigenvalues[i]));
+    writeVdb(grids, (tmp / run.subdir / "gpis.vdb").string(), meta, flags.vdb);
+    openvdb::FloatGrid::Ptr mean;
+    for (const auto& g : grids) {
+        if (g->getName() == "mean") mean = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+        if (g->getName() == "mu") run.mu = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+    }
+    run.surface = meanSurface(*mean, job.options.iso);
+    for (const auto& g : grids)
+        if (g->isType<openvdb::FloatGrid>() && g->getName() != "mean" && g->getName() != "stencil_width")
+            sampleAtVertices(run.surface, *g);
+    writeMesh(run.surface, (tmp / run.subdir / "surface.vtp").string(), MeshFormat::Vtp);
+    writePaths(geo.paths, (tmp / run.subdir / "path.vtp").string(), PathFormat::Vtp);
+    run.timings = {{"band", job.secondsBand}, {"green", secondsGreen}, {"geodesic", secondsGeodesic},
+                   {"spectrum", secondsSpectrum}, {"outputs", since(t)}};
+    return run;
+}
+
+/// Rows μ, Green, geodesic with its path, first non-constant eigenfunction, μ on the slice z = 0; columns σ.
+void comparisonPicture(const std::vector<SigmaRun>& runs, const DemoArgs& a, const std::string& path) {
+    std::vector<RenderPanel> panels;
+    auto row = [&](auto make) {
+        for (const SigmaRun& r : runs) panels.push_back(make(r));
     };
-    auto a = std::make_shared<Args>();
-    cmd->add_option("-o,--output", a->dir, "output directory (created if missing)")->capture_default_str();
-    cmd->add_option("--resolution", a->resolution, "voxels along the longest side of the grid (8 to 512)")->capture_default_str();
-    addModelFlags(*cmd, a->flags, true);
-    cmd->footer("Writes DIR/gpis.vdb with float grids 'mean' (gamma) and 'stddev' (sqrt c00).\n"
-                "Example:\n  gpisvdb demo -o demo-output --sigma 1");
+    const std::string eigen = eigenGridName(a.eigenCount > 1 ? 1 : 0);
+    row([](const SigmaRun& r) {
+        RenderPanel p;
+        p.title = "sigma = " + sigmaText(r.sigmaRel) + " l: density mu";
+        p.surface = &r.surface, p.array = "mu", p.colormap = Colormap::Magma;
+        return p;
+    });
+    row([](const SigmaRun& r) {
+        RenderPanel p;
+        p.title = "Green's function (log)";
+        p.surface = &r.surface, p.array = "green", p.logScale = true;
+        return p;
+    });
+    row([](const SigmaRun& r) {
+        RenderPanel p;
+        std::ostringstream t;
+        t << "geodesic distance, path " << std::setprecision(3) << r.path.length << (r.pathCrossesGap ? " (across the gap)" : " (round the ring)");
+        p.title = t.str();
+        p.surface = &r.surface, p.array = "geodesic", p.paths = {r.path.points};
+        return p;
+    });
+    row([&](const SigmaRun& r) {
+        RenderPanel p;
+        p.title = "eigenfunction " + eigen.substr(6);
+        p.surface = &r.surface, p.array = eigen, p.colormap = Colormap::Coolwarm, p.symmetric = true;
+        return p;
+    });
+    row([](const SigmaRun& r) {
+        RenderPanel p;
+        p.title = "mu on the slice z = 0";
+        p.sliceGrid = r.mu.get(), p.slice = {2, 0.0}, p.colormap = Colormap::Magma;
+        return p;
+    });
+    RenderOptions o;
+    o.columns = int(runs.size());
+    o.panelWidth = a.pictureWidth;
+    o.panelHeight = a.pictureWidth * 5 / 6;
+    o.caption = "gpisvdb demo: torus with the slab x > 0, |y| < 0.3 cut away; columns: sigma = ";
+    for (std::size_t i = 0; i < runs.size(); ++i) o.caption += (i ? ", " : "") + sigmaText(runs[i].sigmaRel);
+    o.caption += " x l; voxel size " + sigmaText(a.voxelSize);
+    renderPng(panels, o, path);
+}
+
+void inputPicture(const TriangleSoup& soup, const DemoArgs& a, const std::string& path) {
+    SurfaceMesh mesh;
+    for (const Vec3d& v : soup.vertices) mesh.vertices.emplace_back(float(v.x()), float(v.y()), float(v.z()));
+    mesh.triangles = soup.triangles;
+    RenderPanel p;
+    p.title = "input: " + std::to_string(soup.triangles.size()) + " triangles, a gap at +x";
+    p.surface = &mesh;
+    p.paths = {{kSource, kSource + Vec3d(0, 0, 0.15)}, {kTarget, kTarget + Vec3d(0, 0, 0.15)}};
+    RenderOptions o;
+    o.panelWidth = a.pictureWidth;
+    o.panelHeight = a.pictureWidth * 5 / 6;
+    renderPng({p}, o, path);
+}
+
+void writeSummary(const std::vector<SigmaRun>& runs, const DemoArgs& a, double ell, double seconds, const std::string& path) {
+    std::ofstream s(path);
+    s << "# gpisvdb demo\n\n"
+      << "Input: a torus soup (ring radius 1, tube radius 0.4) with the slab x > 0, |y| < 0.3 of its ring cut away "
+         "(data missing there); length scale l = " << ell << ". Each column of the picture is one noise level sigma "
+         "(relative to l); voxel size " << a.voxelSize << ".\n\n"
+      << "![input](input.png)\n\n![comparison](comparison.png)\n\n"
+      << "| sigma / l | band voxels | mass (area) | Green PCG iterations | path length | path | eigenvalues |\n"
+      << "|---|---|---|---|---|---|---|\n";
+    for (const SigmaRun& r : runs) {
+        s << "| " << r.sigmaRel << " | " << r.voxels << " | " << std::setprecision(4) << r.mass << " | " << r.greenIterations
+          << " | " << r.path.length << " | " << (r.pathCrossesGap ? "across the gap" : "round the ring") << " |";
+        for (double l : r.eigenvalues) s << " " << l;
+        s << " |\n";
+    }
+    s << "\nNear the data every field follows the mean surface whatever sigma; across the gap the GPIS is "
+         "uncertain: at small sigma its density mu there is too low for the band to close it, and the shortest path "
+         "goes round the ring; at larger sigma the band bridges the gap and the path crosses it.\n\n"
+      << "Files, per sigma in `sigma-<s>/`: `gpis.vdb` (band grids mu, mean, stddev, T_diag, T_offdiag, normal, "
+         "stencil_width, and green, geodesic, eigen_000...), `surface.vtp` (the mean surface with every scalar "
+         "field), `path.vtp` (the shortest path); `report.json` (all numbers). Ran in " << std::setprecision(3)
+      << seconds << " s.\n\nReproduce: `" << commandLine() << "`\n";
+    if (!s) throw OutputError(path + ": cannot write the summary");
+}
+
+}  // namespace
+
+void addDemo(CLI::App& app, Action& action) {
+    auto* cmd = app.add_subcommand("demo", "the built-in example: a torus with a gap at three noise levels (band, Green, geodesic, eigenfunctions, pictures)");
+    auto a = std::make_shared<DemoArgs>();
+    cmd->add_option("-o,--output", a->dir, "output directory (created if missing; files of the same names are replaced)")->capture_default_str();
+    cmd->add_option("--sigma", a->sigmas, "noise levels sigma, relative to the length scale l (> 0; one picture column each)")
+        ->expected(1, 6)
+        ->capture_default_str();
+    cmd->add_option("--voxel-size", a->voxelSize, "voxel size h in world units (the torus' ring has radius 1)")->capture_default_str();
+    cmd->add_option("-k,--count", a->eigenCount, "eigenpairs per sigma (1 to 20)")->capture_default_str();
+    cmd->add_option("--picture-width", a->pictureWidth, "pixels per picture panel (64 to 2000)")->capture_default_str();
+    cmd->add_flag("--half", a->half, "store the .vdb grids as 16-bit floats");
+    cmd->add_option("--threads", a->threads, "worker threads (0 = all cores)")->capture_default_str();
+    cmd->add_flag("--quiet", a->quiet, "no progress bars or summary lines");
+    cmd->footer("Writes DIR/summary.md, DIR/report.json, DIR/input.png, DIR/comparison.png and, per sigma,\n"
+                "DIR/sigma-<s>/{gpis.vdb, surface.vtp, path.vtp}. About a minute on 2 cores.\n"
+                "Examples:\n  gpisvdb demo -o demo-output\n  gpisvdb demo -o quick --sigma 1 --sigma 3 --voxel-size 0.08");
     cmd->callback([&action, a] {
         action = [a] {
-            namespace fs = std::filesystem;
-            const auto start = std::chrono::steady_clock::now();
-            if (a->resolution < 8 || a->resolution > 512) throw ParameterError("--resolution must be in [8, 512]");
-            const auto threads = limitThreads(a->flags.threads);
-            std::error_code ec;
-            fs::create_directories(a->dir, ec);
-            if (ec) throw OutputError(a->dir + ": cannot create the directory: " + ec.message());
+            const auto start = Clock::now();
+            for (double s : a->sigmas)
+                if (!(s > 0) || !std::isfinite(s)) throw ParameterError("--sigma must be finite and > 0 (got " + numberText(s) + ")");
+            if (!(a->voxelSize >= 0.01 && a->voxelSize <= 0.2)) throw ParameterError("--voxel-size must be in [0.01, 0.2] for the built-in torus");
+            if (a->eigenCount < 1 || a->eigenCount > 20) throw ParameterError("-k must be in [1, 20]");
+            if (a->pictureWidth < 64 || a->pictureWidth > 2000) throw ParameterError("--picture-width must be in [64, 2000]");
+            const auto threads = limitThreads(a->threads);
+            AtomicDirectory out(a->dir);
+            const fs::path tmp(out.tempPath());
+            const Progress progress = makeProgress(a->quiet);
 
-            // === Input: torus (ring 1, tube 0.4) with the triangles above z = 0.25 removed
             InputData data;
             data.path = "built-in torus with a gap";
-            data.soup = cutAbove(torus(64, 24), 0.25);
-            const LoadedModel m = loadModel(data, a->flags);
-            const double ell = m.input.samples.lengthScale;
-
-            // === Voxel grid over the bounding box, padded by 4ℓ
-            Vec3d lo = m.input.samples.position[0], hi = lo;
-            for (const auto& p : m.input.samples.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-            lo.array() -= 4 * ell, hi.array() += 4 * ell;
-            const double h = (hi - lo).maxCoeff() / a->resolution;
-            const openvdb::Coord c0(int(std::floor(lo.x() / h)), int(std::floor(lo.y() / h)), int(std::floor(lo.z() / h)));
-            const openvdb::Coord c1(int(std::ceil(hi.x() / h)), int(std::ceil(hi.y() / h)), int(std::ceil(hi.z() / h)));
-            std::vector<openvdb::Coord> coords;
-            std::vector<Vec3d> xs;
-            for (int i = c0.x(); i <= c1.x(); ++i)
-                for (int j = c0.y(); j <= c1.y(); ++j)
-                    for (int k = c0.z(); k <= c1.z(); ++k) {
-                        coords.emplace_back(i, j, k);
-                        xs.emplace_back(h * i, h * j, h * k);
-                    }
-            AtomicOutput out((fs::path(a->dir) / "gpis.vdb").string());
-            const auto values = m.model->evaluate(xs, makeProgress(a->flags.quiet));
-
-            // === Grids: voxel centres at h·k (world units), as the transform says
-            openvdb::initialize();
-            auto transform = openvdb::math::Transform::createLinearTransform(h);
-            auto mean = openvdb::FloatGrid::create(0.0f), stddev = openvdb::FloatGrid::create(0.0f);
-            mean->setName("mean");
-            stddev->setName("stddev");
-            for (auto& g : {mean, stddev}) g->setTransform(transform);
-            auto am = mean->getAccessor();
-            auto as = stddev->getAccessor();
-            for (std::size_t n = 0; n < coords.size(); ++n) {
-                am.setValue(coords[n], float(values[n].mean[0]));
-                as.setValue(coords[n], float(std::sqrt(std::max(0.0, values[n].cov(0, 0)))));
+            data.soup = demoShape();
+            std::vector<SigmaRun> runs;
+            for (double s : a->sigmas) {
+                runs.push_back(runSigma(data, s, *a, tmp, progress));
+                const SigmaRun& r = runs.back();
+                if (!a->quiet)
+                    std::cerr << "demo: sigma = " << s << " l: " << r.voxels << " band voxels, Green " << r.greenIterations
+                              << " PCG iterations, path " << r.path.length << (r.pathCrossesGap ? " across the gap" : " round the ring")
+                              << ", lambda_0 = " << r.eigenvalues.front() << "\n";
             }
-            openvdb::MetaMap meta;
-            meta.insertMeta("gpisvdb_version", openvdb::StringMetadata(GPISVDB_VERSION));
-            meta.insertMeta("input", openvdb::StringMetadata(data.path));
-            meta.insertMeta("samples", openvdb::Int64Metadata(openvdb::Int64(m.input.samples.size())));
-            meta.insertMeta("sigma_rel", openvdb::DoubleMetadata(a->flags.sigmaRel));
-            meta.insertMeta("sigma", openvdb::DoubleMetadata(m.input.sigma));
-            meta.insertMeta("smoothing_rel", openvdb::DoubleMetadata(a->flags.smoothingRel));
-            meta.insertMeta("smoothing", openvdb::DoubleMetadata(m.smoothing));
-            meta.insertMeta("length_scale", openvdb::DoubleMetadata(ell));
-            openvdb::io::File file(out.tempPath());
-            file.setCompression(openvdb::io::COMPRESS_BLOSC);
-            file.write(openvdb::GridCPtrVec{mean, stddev}, meta);
-            file.close();
+            const auto tPictures = Clock::now();
+            inputPicture(*data.soup, *a, (tmp / "input.png").string());
+            comparisonPicture(runs, *a, (tmp / "comparison.png").string());
+            const double secondsPictures = since(tPictures);
+            const double ell = makeSamples(data, {}).samples.lengthScale;
+            const double total = since(start);
+            writeSummary(runs, *a, ell, total, (tmp / "summary.md").string());
+
+            nlohmann::json report = {{"input", {{"shape", "torus (ring 1, tube 0.4), 64 x 24 quads"}, {"gap_box_min", {kGapLo.x(), kGapLo.y(), kGapLo.z()}},
+                                                {"gap_box_max", {kGapHi.x(), kGapHi.y(), kGapHi.z()}}, {"triangles", data.soup->triangles.size()},
+                                                {"length_scale", ell}}},
+                                     {"voxel_size", a->voxelSize}, {"source", {kSource.x(), kSource.y(), kSource.z()}},
+                                     {"target", {kTarget.x(), kTarget.y(), kTarget.z()}}, {"runs", nlohmann::json::array()}};
+            for (const SigmaRun& r : runs)
+                report["runs"].push_back({{"sigma_rel", r.sigmaRel}, {"sigma", r.sigma}, {"directory", r.subdir},
+                                          {"band_voxels", r.voxels}, {"band_mass", r.mass},
+                                          {"green_pcg_iterations", r.greenIterations},
+                                          {"path", {{"length", r.path.length}, {"distance", r.path.distance},
+                                                    {"crosses_gap", r.pathCrossesGap}, {"reached_source", r.path.reachedSource}}},
+                                          {"eigenvalues", r.eigenvalues}, {"timings_s", r.timings}});
+            report["timings_s"] = {{"pictures", secondsPictures}, {"total", total}};
+            report["command_line"] = commandLine();
+            std::ofstream((tmp / "report.json").string()) << report.dump(2) << "\n";
             out.commit();
-            const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            std::cout << "demo: " << m.input.samples.size() << " samples (torus with a gap), l = " << ell
-                      << ", sigma = " << m.input.sigma << ", s = " << m.smoothing << "\n"
-                      << "demo: " << xs.size() << " voxels of size " << h << " evaluated in " << secs << " s\n"
-                      << "demo: wrote " << (fs::path(a->dir) / "gpis.vdb").string() << " (grids mean, stddev)\n";
+            if (!a->quiet)
+                std::cerr << "demo: wrote " << (fs::path(a->dir) / "summary.md").string() << " and the pictures, .vdb files and meshes beside it, "
+                          << std::setprecision(3) << total << " s\n";
         };
     });
 }

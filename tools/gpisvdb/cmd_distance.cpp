@@ -83,15 +83,7 @@ void addDistance(CLI::App& app, Action& action) {
             meta.insertMeta("distance_voxel_size", openvdb::DoubleMetadata(r.voxelSize));
             meta.insertMeta("distance_tolerance", openvdb::DoubleMetadata(r.tolerance));
             if (!std::isnan(a->level)) meta.insertMeta("distance_level", openvdb::DoubleMetadata(a->level));
-            for (auto& g : grids) g->setSaveFloatAsHalf(false);
-            try {
-                openvdb::io::File file(out.tempPath());
-                file.setCompression(openvdb::io::COMPRESS_BLOSC);
-                file.write(grids, meta);
-                file.close();
-            } catch (const openvdb::Exception& e) {
-                throw OutputError(a->output + ": cannot write the VDB file: " + e.what());
-            }
+            writeVdb(grids, out.tempPath(), meta, a->flags.vdb);
             if (meshOut) writeMesh(mesh, meshOut->tempPath(), meshFormatOf(a->mesh));
             out.commit();
             if (meshOut) meshOut->commit();

@@ -93,7 +93,7 @@ void addGeodesic(CLI::App& app, Action& action) {
             meta.insertMeta("geodesic_reached", openvdb::Int64Metadata(openvdb::Int64(g.march.accepted)));
             meta.insertMeta("geodesic_unreached", openvdb::Int64Metadata(openvdb::Int64(g.march.unreached)));
             meta.insertMeta("geodesic_sources", openvdb::Int32Metadata(int(sources.size())));
-            writeBandVdb(band, out.tempPath(), meta, {{"geodesic", &U, float(farthest)}});
+            writeBandVdb(band, out.tempPath(), meta, {{"geodesic", &U, float(farthest)}}, {}, a->flags.vdb);
             if (pathsOut) writePaths(g.paths, pathsOut->tempPath(), pathFormat);
             out.commit();
             if (pathsOut) pathsOut->commit();

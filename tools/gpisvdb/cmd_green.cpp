@@ -70,7 +70,7 @@ void addGreen(CLI::App& app, Action& action) {
             meta.insertMeta("green_source_voxel", openvdb::Vec3IMetadata(openvdb::Vec3i(y.x(), y.y(), y.z())));
             meta.insertMeta("solver_iterations", openvdb::Int32Metadata(g.solver.iterations));
             meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(g.solver.relativeResidual));
-            writeBandVdb(band, out.tempPath(), meta, {{"green", &g.values}});
+            writeBandVdb(band, out.tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
             out.commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
             if (reportOut) {

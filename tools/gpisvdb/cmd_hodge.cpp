@@ -8,6 +8,7 @@
 
 #include "band_job.h"
 #include "commands.h"
+#include "vdb_file.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/output/write_vdb.h"
 #include "gpisvdb/tasks/hodge.h"
@@ -25,16 +26,7 @@ std::vector<float> readField(const std::string& spec, const Band& band) {
         path = spec.substr(0, colon);
         name = spec.substr(colon + 1);
     }
-    openvdb::initialize();
-    openvdb::GridPtrVecPtr grids;
-    try {
-        openvdb::io::File file(path);
-        file.open();
-        grids = file.getGrids();
-        file.close();
-    } catch (const openvdb::Exception& e) {
-        throw InputError(path + ": cannot read the field (" + e.what() + ")");
-    }
+    const openvdb::GridPtrVecPtr grids = VdbFile::read(path).grids;
     openvdb::Vec3SGrid::Ptr field;
     std::string names;
     int vectors = 0;
@@ -128,7 +120,7 @@ void addHodge(CLI::App& app, Action& action) {
             meta.insertMeta("solver_iterations", openvdb::Int32Metadata(r.solver.iterations));
             meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(r.solver.relativeResidual));
             writeBandVdb(band, out.tempPath(), meta, {{"hodge_potential", &r.potential}},
-                         {{"hodge_input", &V}, {"hodge_gradient", &r.gradient}, {"hodge_free", &r.free}});
+                         {{"hodge_input", &V}, {"hodge_gradient", &r.gradient}, {"hodge_free", &r.free}}, a->flags.vdb);
             out.commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
             if (reportOut) {

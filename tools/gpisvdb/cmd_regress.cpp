@@ -91,7 +91,7 @@ void addRegress(CLI::App& app, Action& action) {
             meta.insertMeta("regression_points", openvdb::Int64Metadata(openvdb::Int64(points.value.size())));
             meta.insertMeta("regression_eigenpairs", openvdb::Int32Metadata(int(e.values.size())));
             writeBandVdb(band, out.tempPath(), meta,
-                         {{"regression_mean", &r.mean, float(r.priorMean)}, {"regression_variance", &r.variance}});
+                         {{"regression_mean", &r.mean, float(r.priorMean)}, {"regression_variance", &r.variance}}, {}, a->flags.vdb);
             out.commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
             if (reportOut) {

@@ -11,15 +11,6 @@
 
 namespace gpisvdb::cli {
 
-namespace {
-/// "eigen_000", "eigen_001", … (more digits past 999).
-std::string eigenGridName(int i) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "eigen_%03d", i);
-    return buf;
-}
-}  // namespace
-
 void addSpectrum(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("spectrum", "lowest eigenpairs of the GPIS Laplacian (L u = lambda M u), as a .vdb");
     struct Args {
@@ -62,7 +53,7 @@ void addSpectrum(CLI::App& app, Action& action) {
             for (Eigen::Index i = 0; i < e.values.size(); ++i)
                 meta.insertMeta(eigenGridName(int(i)) + "_eigenvalue", openvdb::DoubleMetadata(e.values(i)));
             meta.insertMeta("spectrum_max_residual", openvdb::DoubleMetadata(e.residuals.maxCoeff()));
-            writeBandVdb(band, out.tempPath(), meta, grids);
+            writeBandVdb(band, out.tempPath(), meta, grids, {}, a->flags.vdb);
             out.commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
             if (reportOut) {

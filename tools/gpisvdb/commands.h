@@ -17,5 +17,7 @@ void addSpectrum(CLI::App& app, Action& action);
 void addRegress(CLI::App& app, Action& action);
 void addHodge(CLI::App& app, Action& action);
 void addDistance(CLI::App& app, Action& action);
+void addRender(CLI::App& app, Action& action);
+void addSample(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

@@ -109,9 +109,50 @@ AtomicOutput::~AtomicOutput() {
 }
 
 void AtomicOutput::commit() {
+    if (interruptRequested()) throw Cancelled();  // a Ctrl-C during a step that does not poll still leaves nothing
     std::error_code ec;
     std::filesystem::rename(temp_, path_, ec);
     if (ec) throw OutputError(path_ + ": cannot rename the finished output into place: " + ec.message());
+    committed_ = true;
+}
+
+AtomicDirectory::AtomicDirectory(std::string path) : path_(std::move(path)) {
+    namespace fs = std::filesystem;
+    fs::path target = fs::path(path_).lexically_normal();
+    if (target.filename().empty()) target = target.parent_path();
+    std::error_code ec;
+    if (fs::exists(target, ec) && !fs::is_directory(target, ec)) throw OutputError(path_ + ": exists and is not a directory");
+    const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    if (!fs::is_directory(parent, ec)) throw OutputError(path_ + ": the directory " + parent.string() + " does not exist");
+    std::random_device rd;
+    temp_ = (parent / ("." + target.filename().string() + ".tmp-" + std::to_string(rd() % 1000000))).string();
+    if (!fs::create_directory(temp_, ec) || ec) throw OutputError(path_ + ": cannot write in " + parent.string());
+    path_ = target.string();
+}
+
+AtomicDirectory::~AtomicDirectory() {
+    std::error_code ec;
+    if (!committed_) std::filesystem::remove_all(temp_, ec);
+}
+
+void AtomicDirectory::commit() {
+    if (interruptRequested()) throw Cancelled();
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (!fs::exists(path_, ec)) {
+        fs::rename(temp_, path_, ec);
+        if (ec) throw OutputError(path_ + ": cannot move the finished outputs into place: " + ec.message());
+        committed_ = true;
+        return;
+    }
+    // An existing directory: replace entry by entry (a previous run's subdirectories are replaced whole).
+    for (const auto& entry : fs::directory_iterator(temp_)) {
+        const fs::path to = fs::path(path_) / entry.path().filename();
+        if (fs::is_directory(to, ec) && entry.is_directory()) fs::remove_all(to, ec);
+        fs::rename(entry.path(), to, ec);
+        if (ec) throw OutputError(to.string() + ": cannot move the finished output into place: " + ec.message());
+    }
+    fs::remove_all(temp_, ec);
     committed_ = true;
 }
 

@@ -51,6 +51,20 @@ private:
     bool committed_ = false;
 };
 
+/// A directory of outputs written under a temporary name beside the target and moved into it on commit()
+/// (each entry renamed; an existing target keeps its other files); removed if never committed.
+class AtomicDirectory {
+public:
+    explicit AtomicDirectory(std::string path);
+    ~AtomicDirectory();
+    const std::string& tempPath() const { return temp_; }
+    void commit();
+
+private:
+    std::string path_, temp_;
+    bool committed_ = false;
+};
+
 /// Progress on stderr when it is a terminal (and not --quiet); interrupted after Ctrl-C.
 Progress makeProgress(bool quiet);
 /// The command line as typed (recorded in output metadata).

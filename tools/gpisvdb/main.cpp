@@ -11,7 +11,9 @@ int main(int argc, char** argv) {
     CLI::App app{"gpisvdb: geometry processing on Gaussian Process Implicit Surfaces (GPIS), on OpenVDB"};
     app.set_version_flag("--version", std::string("gpisvdb ") + GPISVDB_VERSION);
     app.require_subcommand(1);
-    app.footer("Run 'gpisvdb COMMAND --help' for the flags and examples of each command.");
+    app.footer("Run 'gpisvdb COMMAND --help' for the flags and examples of each command.\n"
+               "Exit codes: 0 success, 1 error (one line on stderr, no output left behind), 2 usage error, 130 interrupted.\n"
+               "Example:\n  gpisvdb demo -o demo-output");
     cli::Action action;
     cli::addInfo(app, action);
     cli::addEvaluate(app, action);
@@ -24,6 +26,8 @@ int main(int argc, char** argv) {
     cli::addHodge(app, action);
     cli::addDistance(app, action);
     cli::addMesh(app, action);
+    cli::addRender(app, action);
+    cli::addSample(app, action);
     for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
     try {
         app.parse(argc, argv);

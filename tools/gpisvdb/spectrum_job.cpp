@@ -1,6 +1,7 @@
 #include "spectrum_job.h"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "gpisvdb/tasks/spectrum.h"
 
@@ -12,6 +13,12 @@ void addEigenFlags(CLI::App& cmd, EigenOptions& o) {
         ->capture_default_str();
     cmd.add_option("--eigen-tolerance", o.tolerance, "relative tolerance on each Ritz value (> 0)")->capture_default_str();
     cmd.add_option("--max-restarts", o.maxRestarts, "Lanczos restart cap (>= 1)")->capture_default_str();
+}
+
+std::string eigenGridName(int i) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "eigen_%03d", i);
+    return buf;
 }
 
 EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress) {

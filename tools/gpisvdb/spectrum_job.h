@@ -11,6 +11,9 @@ namespace gpisvdb::cli {
 /// -k, --subspace, --eigen-tolerance, --max-restarts.
 void addEigenFlags(CLI::App& cmd, EigenOptions& options);
 
+/// "eigen_000", "eigen_001", … (more digits past 999): the grid of eigenvector i.
+std::string eigenGridName(int i);
+
 /// The k lowest eigenpairs of the job's band, refused before the numeric factorisation when the factor, the Lanczos
 /// basis and the vectors would not fit in --max-memory beside the band.
 EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress);

@@ -68,4 +68,14 @@ TriangleSoup cutAbove(const TriangleSoup& soup, double zCut) {
     return out;
 }
 
+TriangleSoup cutBox(const TriangleSoup& soup, const Vec3d& lo, const Vec3d& hi) {
+    TriangleSoup out;
+    out.vertices = soup.vertices;
+    for (const auto& f : soup.triangles) {
+        const Vec3d c = (soup.vertices[f[0]] + soup.vertices[f[1]] + soup.vertices[f[2]]) / 3.0;
+        if (!((c.array() >= lo.array()).all() && (c.array() <= hi.array()).all())) out.triangles.push_back(f);
+    }
+    return out;
+}
+
 }  // namespace gpisvdb

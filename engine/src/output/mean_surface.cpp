@@ -138,6 +138,11 @@ void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat form
     }
     pd->SetPoints(pts);
     pd->SetPolys(cells);
+    if (mesh.triangles.empty()) {  // a point set: one vertex cell per point, so viewers draw them
+        auto verts = vtkSmartPointer<vtkCellArray>::New();
+        for (vtkIdType i = 0; i < vtkIdType(mesh.vertices.size()); ++i) verts->InsertNextCell(1, &i);
+        pd->SetVerts(verts);
+    }
     for (std::size_t k = 0; k < mesh.arrays.size(); ++k) {
         auto a = vtkSmartPointer<vtkFloatArray>::New();
         a->SetName(mesh.arrayNames[k].c_str());

@@ -13,6 +13,8 @@
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
+#include <vtkIdList.h>
+#include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 
 #include "gpisvdb/core/errors.h"
@@ -26,6 +28,32 @@ PathFormat pathFormatOf(const std::string& path) {
     if (ext == ".obj") return PathFormat::Obj;
     if (ext == ".json") return PathFormat::Json;
     throw OutputError(path + ": unknown path extension '" + ext + "' (use .vtp, .obj or .json)");
+}
+
+std::vector<std::vector<Vec3d>> readPolylines(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) throw InputError(path + ": no such file");
+    if (pathFormatOf(path) != PathFormat::Vtp) throw InputError(path + ": paths are read from .vtp files only");
+    vtkObject::GlobalWarningDisplayOff();  // a bad file is reported once, below
+    auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
+    reader->SetFileName(path.c_str());
+    reader->Update();
+    vtkPolyData* pd = reader->GetOutput();
+    if (reader->GetErrorCode() != 0 || !pd || !pd->GetPoints() || pd->GetNumberOfLines() == 0)
+        throw InputError(path + ": not a VTK PolyData file with lines");
+    std::vector<std::vector<Vec3d>> lines;
+    vtkCellArray* cells = pd->GetLines();
+    auto ids = vtkSmartPointer<vtkIdList>::New();
+    for (cells->InitTraversal(); cells->GetNextCell(ids);) {
+        std::vector<Vec3d> line;
+        for (vtkIdType k = 0; k < ids->GetNumberOfIds(); ++k) {
+            double x[3];
+            pd->GetPoint(ids->GetId(k), x);
+            line.emplace_back(x[0], x[1], x[2]);
+        }
+        lines.push_back(std::move(line));
+    }
+    return lines;
 }
 
 void writePaths(const std::vector<GeodesicPath>& paths, const std::string& path, PathFormat format) {

@@ -21,8 +21,8 @@ typename GridT::Ptr channel(const Band& band, const std::string& name, const Val
 
 }  // namespace
 
-void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
-                  const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors) {
+openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>& extra,
+                              const std::vector<NamedVectorChannel>& vectors) {
     openvdb::initialize();
     openvdb::GridPtrVec grids;
     auto mu = channel<openvdb::FloatGrid>(band, "mu", [&](std::size_t i) { return band.mu[i]; });
@@ -62,7 +62,13 @@ void writeBandVdb(const Band& band, const std::string& path, const openvdb::Meta
         grid->setVectorType(c.vectorType);
         grids.push_back(grid);
     }
-    for (auto& g : grids) g->setSaveFloatAsHalf(false);
+    return grids;
+}
+
+void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
+              const VdbWriteOptions& options) {
+    openvdb::initialize();
+    for (auto& g : grids) g->setSaveFloatAsHalf(options.halfFloat);
     try {
         openvdb::io::File file(path);
         file.setCompression(openvdb::io::COMPRESS_BLOSC);
@@ -71,6 +77,12 @@ void writeBandVdb(const Band& band, const std::string& path, const openvdb::Meta
     } catch (const openvdb::Exception& e) {
         throw OutputError(path + ": cannot write the VDB file: " + e.what());
     }
+}
+
+void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
+                  const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors,
+                  const VdbWriteOptions& options) {
+    writeVdb(bandGrids(band, extra, vectors), path, metadata, options);
 }
 
 }  // namespace gpisvdb

@@ -13,5 +13,7 @@ TriangleSoup torus(int u, int v, double major = 1.0, double minor = 0.4);
 
 /// Removes every triangle whose barycentre has z > zCut (makes a hole: the demo's "missing data").
 TriangleSoup cutAbove(const TriangleSoup& soup, double zCut);
+/// Removes every triangle whose barycentre lies in the axis-aligned box [lo, hi] (world units).
+TriangleSoup cutBox(const TriangleSoup& soup, const Vec3d& lo, const Vec3d& hi);
 
 }  // namespace gpisvdb

@@ -38,7 +38,8 @@ enum class MeshFormat { Ply, Vtp };
 /// The format named by a path's extension (.ply or .vtp); throws OutputError otherwise.
 MeshFormat meshFormatOf(const std::string& path);
 
-/// Writes PLY (binary little endian; arrays as vertex properties) or VTP (VTK XML; arrays as point data).
+/// Writes PLY (binary little endian; arrays as vertex properties) or VTP (VTK XML; arrays as point data; a mesh
+/// without triangles as vertex cells).
 /// Throws OutputError.
 void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat format);
 

@@ -27,10 +27,23 @@ struct NamedVectorChannel {
     openvdb::VecType vectorType = openvdb::VEC_CONTRAVARIANT_RELATIVE;
 };
 
+struct VdbWriteOptions {
+    bool halfFloat = false;  ///< store float and vec3 grids as 16-bit halves (half the file; ~3 significant digits)
+};
+
 /// Grids: mu (fog volume), mean, stddev, T_diag (xx, yy, zz), T_offdiag (xy, xz, yz), normal (outward unit),
-/// stencil_width (max ‖e‖₁, as float), then `extra`, then `vectors`. Throws OutputError when the file cannot be
-/// written.
+/// stencil_width (max ‖e‖₁, as float), then `extra`, then `vectors`. Throws Error when a channel does not match
+/// the band.
+openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>& extra = {},
+                              const std::vector<NamedVectorChannel>& vectors = {});
+
+/// Writes grids with Blosc compression and the file metadata. Throws OutputError when the file cannot be written.
+void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
+              const VdbWriteOptions& options = {});
+
+/// bandGrids, then writeVdb.
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
-                  const std::vector<NamedChannel>& extra = {}, const std::vector<NamedVectorChannel>& vectors = {});
+                  const std::vector<NamedChannel>& extra = {}, const std::vector<NamedVectorChannel>& vectors = {},
+                  const VdbWriteOptions& options = {});
 
 }  // namespace gpisvdb

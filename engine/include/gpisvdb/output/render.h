@@ -1,0 +1,53 @@
+#pragma once
+// Pictures of results (PNG): a grid's values on the mean surface, with a colour bar, shortest paths and an
+// optional head-on slice, rendered offscreen by VTK. Several panels make one picture (the demo's σ comparison).
+// VTK on Debian draws through X: without a usable DISPLAY the renderer starts its own Xvfb for the process.
+#include <array>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "gpisvdb/core/types.h"
+#include "gpisvdb/output/mean_surface.h"
+
+namespace gpisvdb {
+
+enum class Colormap { Viridis, Magma, Coolwarm, Gray };
+/// "viridis", "magma", "coolwarm", "gray"; throws ParameterError otherwise.
+Colormap colormapOf(const std::string& name);
+
+/// A plane through a float grid: axis 0, 1, 2 (x, y, z) at world coordinate `value`.
+struct SliceSpec {
+    int axis = 2;
+    double value = 0;
+};
+/// "z=0.1", "x=-2": throws ParameterError otherwise.
+SliceSpec sliceOf(const std::string& text);
+
+struct RenderPanel {
+    std::string title;                       ///< drawn above the panel
+    const SurfaceMesh* surface = nullptr;    ///< drawn when set (world units)
+    std::string array;                       ///< surface array to colour by (1 component); empty: plain grey
+    std::vector<std::vector<Vec3d>> paths;   ///< polylines drawn over the surface, world units
+    const openvdb::FloatGrid* sliceGrid = nullptr;  ///< with `slice`: drawn head-on, inactive voxels transparent
+    SliceSpec slice;
+    Colormap colormap = Colormap::Viridis;
+    bool logScale = false;                   ///< colours by log10 (needs positive values; others clamp to the lowest)
+    bool symmetric = false;                  ///< range ±max|value| (signed fields such as eigenfunctions)
+    std::array<double, 2> range{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+};
+
+struct RenderOptions {
+    int panelWidth = 640, panelHeight = 520;  ///< pixels per panel
+    int columns = 0;                          ///< panels per row; 0: all in one row
+    double azimuth = -35;                     ///< camera direction about +z, degrees (0: looking from +x)
+    double elevation = 35;                    ///< camera height above the xy plane, degrees
+    std::string caption;                      ///< one line along the bottom of the picture
+};
+
+/// Renders the panels into one PNG (written to `path`). Throws ParameterError on an empty panel list, a panel
+/// with nothing to draw or an unknown array, and OutputError when no X display can be had or the file cannot be
+/// written.
+void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& options, const std::string& path);
+
+}  // namespace gpisvdb
