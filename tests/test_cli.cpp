@@ -476,14 +476,20 @@ TEST_CASE("cli: every subcommand has --help with an example, and refuses unknown
 TEST_CASE("cli: an interrupted run exits 130 and leaves no file at the output path", "[cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
     const std::string vdb = temp("interrupted.vdb"), json = temp("interrupted.json");
-    fs::remove(vdb);
-    // A band of ~1.5 M voxels: minutes of work, interrupted after one second.
-    const Run band = runInterrupted("band " + bunny + " -o " + vdb + " --report " + json + " --quiet", 1);
-    INFO(band.err);
-    CHECK(band.code == 130);
-    CHECK(lines(band.err) == 1);
-    CHECK_FALSE(leftovers(vdb));
-    CHECK_FALSE(leftovers(json));
+    // At the default voxel size the bunny's band has ~1.5 M voxels: minutes of work, interrupted after one second.
+    const std::vector<std::pair<std::string, std::string>> commands = {
+        {"band", ""}, {"green", "--source 0.5,6,1"}, {"geodesic", "--source 0.5,6,1"}, {"spectrum", "-k 4"},
+        {"hodge", "--preset mixed"}, {"distance", "--alpha 20"}, {"regress", "--data " + temp("int.csv", "0,6,0,1\n")}};
+    for (const auto& [command, flags] : commands) {
+        INFO(command);
+        fs::remove(vdb);
+        const Run r = runInterrupted(command + " " + bunny + " " + flags + " -o " + vdb + " --report " + json + " --quiet", 1);
+        INFO(r.err);
+        CHECK(r.code == 130);
+        CHECK(lines(r.err) == 1);
+        CHECK_FALSE(leftovers(vdb));
+        CHECK_FALSE(leftovers(json));
+    }
 }
 
 namespace {
@@ -590,4 +596,21 @@ TEST_CASE("cli: --half stores 16-bit grids that vdb_print and pyopenvdb read, va
     const double worst = std::stod(py.out.substr(at + 6));
     CHECK(worst > 0);       // the values were rounded ...
     CHECK(worst < 2e-3);    // ... to half precision (2^-11 relative)
+}
+
+TEST_CASE("cli: progress bars on a terminal only, never when stderr is piped or with --quiet", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
+    const std::string vdb = temp("progress.vdb");
+    const std::string band = std::string(GPISVDB_EXE) + " band " + bunny + " --sigma 2 --voxel-size 0.4 -o " + vdb;
+    const Run piped = runShell(band);
+    REQUIRE(piped.code == 0);
+    CHECK(piped.err.find('\r') == std::string::npos);
+    CHECK(piped.err.find("[#") == std::string::npos);
+    // `script` runs the command on a pseudo-terminal: there the bar is drawn (and --quiet still silences it).
+    const Run tty = runShell("script -qec '" + band + "' /dev/null");
+    REQUIRE(tty.code == 0);
+    CHECK(tty.out.find("[#") != std::string::npos);
+    const Run quiet = runShell("script -qec '" + band + " --quiet' /dev/null");
+    REQUIRE(quiet.code == 0);
+    CHECK(quiet.out.find("[#") == std::string::npos);
 }

@@ -224,7 +224,7 @@ void writeSummary(const std::vector<SigmaRun>& runs, const DemoArgs& a, double e
          "(data missing there); length scale l = " << ell << ". Each column of the picture is one noise level sigma "
          "(relative to l); voxel size " << a.voxelSize << ".\n\n"
       << "![input](input.png)\n\n![comparison](comparison.png)\n\n"
-      << "| sigma / l | band voxels | mass (area) | Green PCG iterations | path length | path | eigenvalues |\n"
+      << "| sigma / l | band voxels | expected area (sum mu h^3) | Green PCG iterations | path length | path | eigenvalues |\n"
       << "|---|---|---|---|---|---|---|\n";
     for (const SigmaRun& r : runs) {
         s << "| " << r.sigmaRel << " | " << r.voxels << " | " << std::setprecision(4) << r.mass << " | " << r.greenIterations
