@@ -18,10 +18,18 @@ namespace gpisvdb {
 
 namespace {
 
+/// A connection held for the life of the process: an X server resets when its last client leaves, and a
+/// connection VTK attempts during that reset fails (VTK then aborts).
+Display*& heldConnection() {
+    static Display* d = nullptr;
+    return d;
+}
+
 bool displayAnswers(const char* name) {
     Display* d = XOpenDisplay(name);
     if (!d) return false;
-    XCloseDisplay(d);
+    if (heldConnection()) XCloseDisplay(heldConnection());
+    heldConnection() = d;
     return true;
 }
 
@@ -57,7 +65,7 @@ std::string startXvfb() {
         dup2(devnull, STDERR_FILENO);
         const std::string fd = std::to_string(fds[1]);
         execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "1920x1200x24", "-nolisten", "tcp",
-               static_cast<char*>(nullptr));
+               "-noreset", static_cast<char*>(nullptr));
         _exit(127);
     }
     close(fds[1]);
@@ -79,6 +87,7 @@ void ensureDisplay() {
     static std::mutex mutex;
     std::lock_guard<std::mutex> lock(mutex);
     const char* current = std::getenv("DISPLAY");
+    if (heldConnection()) return;
     if (current && *current && displayAnswers(current)) return;
     const std::string name = startXvfb();
     setenv("DISPLAY", name.c_str(), 1);
