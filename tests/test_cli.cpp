@@ -614,3 +614,40 @@ TEST_CASE("cli: progress bars on a terminal only, never when stderr is piped or 
     REQUIRE(quiet.code == 0);
     CHECK(quiet.out.find("[#") == std::string::npos);
 }
+
+TEST_CASE("cli: render and sample refuse bad input and parameters with one line and no output", "[cli][render]") {
+    const SmallResult& s = smallResult();
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
+    const std::string png = temp("bad_render.png"), mesh = temp("bad_sample.vtp");
+    const std::string notVdb = temp("not_a.vdb", "hello");
+    struct Case {
+        std::string args, expect;
+    };
+    const std::vector<Case> cases = {
+        {"render /nonexistent.vdb --grid mu -o " + png, "no such file"},
+        {"render " + notVdb + " --grid mu -o " + png, "cannot be read as an OpenVDB file"},
+        {"render " + s.vdb + " --grid nosuch -o " + png, "no grid 'nosuch'"},
+        {"render " + s.vdb + " --grid normal -o " + png, "not a float grid"},
+        {"render " + s.vdb + " --grid mu --slice q=1 -o " + png, "--slice"},
+        {"render " + s.vdb + " --grid mu --slice z=1000 -o " + png, "misses the grid"},
+        {"render " + s.vdb + " --grid mu --colormap jet -o " + png, "colour map"},
+        {"render " + s.vdb + " --grid mu --range 2,1 -o " + png, "--range"},
+        {"render " + s.vdb + " --grid mu --log --range 0,1 -o " + png, "--range"},
+        {"render " + s.vdb + " --grid mu --size 10,10 -o " + png, "pixels"},
+        {"render " + s.vdb + " --grid mu --paths /nonexistent.vtp -o " + png, "no such file"},
+        {"render " + s.vdb + " --grid mu -o " + temp("bad_render.jpg"), ".png"},
+        {"sample " + s.vdb + " --at /nonexistent.obj -o " + mesh, "no such file"},
+        {"sample " + s.vdb + " --at " + bunny + " --grid nosuch -o " + mesh, "no grid 'nosuch'"},
+        {"sample " + s.vdb + " --at " + bunny + " -o " + temp("bad_sample.stl"), "extension"},
+        {"sample " + notVdb + " --at " + bunny + " -o " + mesh, "cannot be read as an OpenVDB file"},
+    };
+    for (const Case& c : cases) {
+        const Run r = run(c.args);
+        INFO(c.args << "\nstderr: " << r.err);
+        CHECK(r.code == 1);
+        CHECK(lines(r.err) == 1);
+        CHECK_THAT(r.err, Catch::Contains(c.expect));
+        CHECK_FALSE(leftovers(png));
+        CHECK_FALSE(leftovers(mesh));
+    }
+}
