@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <fstream>
 
 #include "gpisvdb/core/errors.h"
 
@@ -96,6 +97,24 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     job.result = buildBand(*job.model.model, job.model.input.samples, job.options, progress);
     job.secondsBand = since(tBand);
     return job;
+}
+
+BandCommand startBandCommand(const std::string& input, const std::string& output, const BandFlags& flags) {
+    const InputData data = readInput(input);
+    BandCommand c;
+    c.out = std::make_unique<AtomicOutput>(output);
+    if (!flags.report.empty()) c.report = std::make_unique<AtomicOutput>(flags.report);
+    c.progress = makeProgress(flags.model.quiet);
+    c.job = runBand(data, flags, c.progress);
+    return c;
+}
+
+void commitReport(AtomicOutput& file, const nlohmann::json& report) {
+    std::ofstream out(file.tempPath());
+    out << report.dump(2) << "\n";
+    out.close();
+    if (!out) throw OutputError(file.tempPath() + ": cannot write the report");
+    file.commit();
 }
 
 void requireConverged(const PcgResult& r, const PcgOptions& options) {

@@ -38,6 +38,19 @@ struct BandJob {
 /// Model, resolution, memory check, band: the first half of every band command.
 BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress);
 
+/// What every band command opens before its own work: the input read, the output and (with --report) the report
+/// file opened atomically, the progress bar; then the band built.
+struct BandCommand {
+    std::unique_ptr<AtomicOutput> out;
+    std::unique_ptr<AtomicOutput> report;  ///< null without --report
+    Progress progress;
+    BandJob job;
+};
+BandCommand startBandCommand(const std::string& input, const std::string& output, const BandFlags& flags);
+
+/// Writes the JSON report into its temporary file and renames it into place.
+void commitReport(AtomicOutput& file, const nlohmann::json& report);
+
 /// Throws an Error naming the flag to change when a PCG solve stopped short of its tolerance.
 void requireConverged(const PcgResult& result, const PcgOptions& options);
 

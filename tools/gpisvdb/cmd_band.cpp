@@ -1,6 +1,5 @@
 // gpisvdb band INPUT -o OUT.vdb: the narrow band with μ, T and the Selling stencils, as an OpenVDB file.
 #include <chrono>
-#include <fstream>
 #include <iostream>
 
 #include "band_job.h"
@@ -25,20 +24,16 @@ void addBand(CLI::App& app, Action& action) {
         action = [a] {
             const auto start = std::chrono::steady_clock::now();
             const auto threads = limitThreads(a->flags.model.threads);
-            const InputData data = readInput(a->input);
-            AtomicOutput out(a->output);
-            std::unique_ptr<AtomicOutput> reportOut;
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            const BandJob job = runBand(data, a->flags, makeProgress(a->flags.model.quiet));
-            writeBandVdb(job.result.band, out.tempPath(), bandMetadata(job, a->flags), {}, {}, a->flags.vdb);
-            out.commit();
+            BandCommand run = startBandCommand(a->input, a->output, a->flags);
+            const BandJob& job = run.job;
+            writeBandVdb(job.result.band, run.out->tempPath(), bandMetadata(job, a->flags), {}, {}, a->flags.vdb);
+            run.out->commit();
             const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            if (reportOut) {
+            if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"total", total}};
                 report["outputs"] = {a->output};
-                std::ofstream(reportOut->tempPath()) << report.dump(2) << "\n";
-                reportOut->commit();
+                commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet)
                 std::cerr << "band: " << job.result.band.size() << " voxels of size " << job.options.voxelSize

@@ -2,7 +2,6 @@
 // grid, with an optional level surface.
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <iostream>
 
 #include "band_job.h"
@@ -50,22 +49,19 @@ void addDistance(CLI::App& app, Action& action) {
             if (a->distance.tolerance < 0 || !std::isfinite(a->distance.tolerance)) throw ParameterError("--distance-tolerance must be finite and > 0");
             if (!std::isnan(a->level) && !std::isfinite(a->level)) throw ParameterError("--level must be finite");
             a->distance.bruteForce = a->bruteForce;
-            const InputData data = readInput(a->input);
-            AtomicOutput out(a->output);
-            std::unique_ptr<AtomicOutput> meshOut, reportOut;
+            std::unique_ptr<AtomicOutput> meshOut;
             if (!a->mesh.empty()) {
                 meshFormatOf(a->mesh);
                 meshOut = std::make_unique<AtomicOutput>(a->mesh);
             }
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            const Progress progress = makeProgress(a->flags.model.quiet);
-            const BandJob job = runBand(data, a->flags, progress);
+            BandCommand run = startBandCommand(a->input, a->output, a->flags);
+            const BandJob& job = run.job;
             const Band& band = job.result.band;
 
             // === The distance grid
             a->distance.maxPoints = std::size_t(job.maxMemory / kBytesPerPoint);
             const auto tDistance = Clock::now();
-            const SmoothedDistanceResult r = smoothedDistanceGrid(band, a->distance, progress);
+            const SmoothedDistanceResult r = smoothedDistanceGrid(band, a->distance, run.progress);
             const double secondsDistance = std::chrono::duration<double>(Clock::now() - tDistance).count();
             openvdb::GridPtrVec grids{r.grid};
             SurfaceMesh mesh;
@@ -83,12 +79,12 @@ void addDistance(CLI::App& app, Action& action) {
             meta.insertMeta("distance_voxel_size", openvdb::DoubleMetadata(r.voxelSize));
             meta.insertMeta("distance_tolerance", openvdb::DoubleMetadata(r.tolerance));
             if (!std::isnan(a->level)) meta.insertMeta("distance_level", openvdb::DoubleMetadata(a->level));
-            writeVdb(grids, out.tempPath(), meta, a->flags.vdb);
+            writeVdb(grids, run.out->tempPath(), meta, a->flags.vdb);
             if (meshOut) writeMesh(mesh, meshOut->tempPath(), meshFormatOf(a->mesh));
-            out.commit();
+            run.out->commit();
             if (meshOut) meshOut->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (reportOut) {
+            if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 const openvdb::CoordBBox box = r.grid->evalActiveVoxelBoundingBox();
                 report["distance"] = {{"alpha", a->distance.alpha}, {"voxel_size", r.voxelSize}, {"points", r.points},
@@ -99,8 +95,7 @@ void addDistance(CLI::App& app, Action& action) {
                 if (meshOut) report["distance"]["mesh_triangles"] = mesh.triangles.size();
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"distance", secondsDistance}, {"total", total}};
                 report["outputs"] = a->mesh.empty() ? nlohmann::json{a->output} : nlohmann::json{a->output, a->mesh};
-                std::ofstream(reportOut->tempPath()) << report.dump(2) << "\n";
-                reportOut->commit();
+                commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet)
                 std::cerr << "distance: " << r.points << " points, " << r.meanTerms << " terms per point of " << band.size()

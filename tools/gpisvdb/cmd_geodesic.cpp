@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <iostream>
 
 #include "band_job.h"
@@ -63,20 +62,17 @@ void addGeodesic(CLI::App& app, Action& action) {
             if (!a->paths.empty() && targets.empty()) throw ParameterError("--paths needs at least one --target");
             if (a->stopAtTargets && targets.empty()) throw ParameterError("--stop-at-targets needs at least one --target");
             const PathFormat pathFormat = a->paths.empty() ? PathFormat::Json : pathFormatOf(a->paths);
-            const InputData data = readInput(a->input);
-            AtomicOutput out(a->output);
-            std::unique_ptr<AtomicOutput> pathsOut, reportOut;
+            std::unique_ptr<AtomicOutput> pathsOut;
             if (!a->paths.empty()) pathsOut = std::make_unique<AtomicOutput>(a->paths);
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            const Progress progress = makeProgress(a->flags.model.quiet);
-            const BandJob job = runBand(data, a->flags, progress);
+            BandCommand run = startBandCommand(a->input, a->output, a->flags);
+            const BandJob& job = run.job;
             const Band& band = job.result.band;
 
             // === U by fast marching, paths by backtracking
             const auto tSolve = Clock::now();
             GeodesicOptions options;
             options.stopAtTargets = a->stopAtTargets;
-            const GeodesicResult g = geodesicDistance(band, sources, targets, options, progress);
+            const GeodesicResult g = geodesicDistance(band, sources, targets, options, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             if (g.march.accepted == g.sourceIndex.size() && band.size() > g.sourceIndex.size() && !a->stopAtTargets)
                 throw Error("the march did not leave the sources: their stencils reach no band voxel (a band too thin "
@@ -93,12 +89,12 @@ void addGeodesic(CLI::App& app, Action& action) {
             meta.insertMeta("geodesic_reached", openvdb::Int64Metadata(openvdb::Int64(g.march.accepted)));
             meta.insertMeta("geodesic_unreached", openvdb::Int64Metadata(openvdb::Int64(g.march.unreached)));
             meta.insertMeta("geodesic_sources", openvdb::Int32Metadata(int(sources.size())));
-            writeBandVdb(band, out.tempPath(), meta, {{"geodesic", &U, float(farthest)}}, {}, a->flags.vdb);
+            writeBandVdb(band, run.out->tempPath(), meta, {{"geodesic", &U, float(farthest)}}, {}, a->flags.vdb);
             if (pathsOut) writePaths(g.paths, pathsOut->tempPath(), pathFormat);
-            out.commit();
+            run.out->commit();
             if (pathsOut) pathsOut->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (reportOut) {
+            if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 nlohmann::json paths = nlohmann::json::array();
                 for (std::size_t k = 0; k < g.paths.size(); ++k) {
@@ -121,8 +117,7 @@ void addGeodesic(CLI::App& app, Action& action) {
                                        {"total", total}};
                 report["outputs"] = {a->output};
                 if (!a->paths.empty()) report["outputs"].push_back(a->paths);
-                std::ofstream(reportOut->tempPath()) << report.dump(2) << "\n";
-                reportOut->commit();
+                commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet) {
                 std::cerr << "geodesic: " << band.size() << " voxels, " << g.march.accepted << " reached";

@@ -1,6 +1,5 @@
 // gpisvdb green INPUT --source X,Y,Z -o OUT.vdb: the Green's function of the GPIS Laplacian (paper Alg. 1).
 #include <chrono>
-#include <fstream>
 #include <iostream>
 
 #include "band_job.h"
@@ -42,12 +41,8 @@ void addGreen(CLI::App& app, Action& action) {
             if (a->source.size() != 3) throw ParameterError("--source needs X,Y,Z");
             if (!(a->solver.tolerance > 0)) throw ParameterError("--tolerance must be > 0");
             if (a->solver.maxIterations < 1) throw ParameterError("--max-iterations must be >= 1");
-            const InputData data = readInput(a->input);
-            AtomicOutput out(a->output);
-            std::unique_ptr<AtomicOutput> reportOut;
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            const Progress progress = makeProgress(a->flags.model.quiet);
-            const BandJob job = runBand(data, a->flags, progress);
+            BandCommand run = startBandCommand(a->input, a->output, a->flags);
+            const BandJob& job = run.job;
             const Band& band = job.result.band;
             // === Operators (matrix-free L; assembled for the incomplete Cholesky factor), then L f = M δ_y
             const auto tOps = Clock::now();
@@ -61,7 +56,7 @@ void addGreen(CLI::App& app, Action& action) {
             }
             const double secondsOps = std::chrono::duration<double>(Clock::now() - tOps).count();
             const auto tSolve = Clock::now();
-            const GreenResult g = greensFunction(band, *L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, progress);
+            const GreenResult g = greensFunction(band, *L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             requireConverged(g.solver, a->solver);
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
@@ -70,10 +65,10 @@ void addGreen(CLI::App& app, Action& action) {
             meta.insertMeta("green_source_voxel", openvdb::Vec3IMetadata(openvdb::Vec3i(y.x(), y.y(), y.z())));
             meta.insertMeta("solver_iterations", openvdb::Int32Metadata(g.solver.iterations));
             meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(g.solver.relativeResidual));
-            writeBandVdb(band, out.tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
-            out.commit();
+            writeBandVdb(band, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
+            run.out->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (reportOut) {
+            if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["solver"] = {{"method", a->solver.preconditioner == Preconditioner::Jacobi ? "PCG, Jacobi" : "PCG, incomplete Cholesky"},
                                     {"iterations", g.solver.iterations}, {"restarts", g.solver.restarts},
@@ -83,8 +78,7 @@ void addGreen(CLI::App& app, Action& action) {
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps},
                                        {"solve", secondsSolve}, {"total", total}};
                 report["outputs"] = {a->output};
-                std::ofstream(reportOut->tempPath()) << report.dump(2) << "\n";
-                reportOut->commit();
+                commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet)
                 std::cerr << "green: " << band.size() << " voxels, PCG " << g.solver.iterations << " iterations to "

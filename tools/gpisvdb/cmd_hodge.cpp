@@ -3,7 +3,6 @@
 #include <openvdb/tools/Interpolation.h>
 
 #include <chrono>
-#include <fstream>
 #include <iostream>
 
 #include "band_job.h"
@@ -86,12 +85,8 @@ void addHodge(CLI::App& app, Action& action) {
             if (a->field.empty() == a->preset.empty()) throw ParameterError("give exactly one of --field FILE.vdb[:GRID] and --preset rotation|gradient|mixed");
             if (!(a->solver.tolerance > 0)) throw ParameterError("--tolerance must be > 0");
             if (a->solver.maxIterations < 1) throw ParameterError("--max-iterations must be >= 1");
-            const InputData data = readInput(a->input);
-            AtomicOutput out(a->output);
-            std::unique_ptr<AtomicOutput> reportOut;
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            const Progress progress = makeProgress(a->flags.model.quiet);
-            const BandJob job = runBand(data, a->flags, progress);
+            BandCommand run = startBandCommand(a->input, a->output, a->flags);
+            const BandJob& job = run.job;
             const Band& band = job.result.band;
 
             // === The field on the band, then the decomposition
@@ -108,7 +103,7 @@ void addHodge(CLI::App& app, Action& action) {
             ho.solver = a->solver;
             ho.boundary = a->boundary == "dirichlet" ? Boundary::Dirichlet : Boundary::Neumann;
             const auto tSolve = Clock::now();
-            const HodgeResult r = hodgeDecomposition(band, V, ho, progress);
+            const HodgeResult r = hodgeDecomposition(band, V, ho, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             requireConverged(r.solver, a->solver);
 
@@ -119,11 +114,11 @@ void addHodge(CLI::App& app, Action& action) {
             meta.insertMeta("hodge_s_inner_product", openvdb::DoubleMetadata(r.sInnerProduct));
             meta.insertMeta("solver_iterations", openvdb::Int32Metadata(r.solver.iterations));
             meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(r.solver.relativeResidual));
-            writeBandVdb(band, out.tempPath(), meta, {{"hodge_potential", &r.potential}},
+            writeBandVdb(band, run.out->tempPath(), meta, {{"hodge_potential", &r.potential}},
                          {{"hodge_input", &V}, {"hodge_gradient", &r.gradient}, {"hodge_free", &r.free}}, a->flags.vdb);
-            out.commit();
+            run.out->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (reportOut) {
+            if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["solver"] = {{"method", "PCG, Jacobi"}, {"iterations", r.solver.iterations},
                                     {"restarts", r.solver.restarts}, {"relative_residual", r.solver.relativeResidual},
@@ -137,8 +132,7 @@ void addHodge(CLI::App& app, Action& action) {
                                    {"s_norm_free", std::sqrt(sInnerProduct(band, r.free, r.free))}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve}, {"total", total}};
                 report["outputs"] = {a->output};
-                std::ofstream(reportOut->tempPath()) << report.dump(2) << "\n";
-                reportOut->commit();
+                commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet)
                 std::cerr << "hodge: " << band.size() << " voxels, PCG " << r.solver.iterations << " iterations, D_phi V_free / D_phi V = "

@@ -2,7 +2,6 @@
 // the Matérn kernel of its Laplacian eigenpairs (paper Eq. 26, Fig. 9).
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <iostream>
 #include <limits>
 
@@ -66,21 +65,17 @@ void addRegress(CLI::App& app, Action& action) {
                 ro.amplitudeFromData = false;
             }
             const PointData points = readPointData(a->data);
-            const InputData data = readInput(a->input);
-            AtomicOutput out(a->output);
-            std::unique_ptr<AtomicOutput> reportOut;
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            const Progress progress = makeProgress(a->flags.model.quiet);
-            const BandJob job = runBand(data, a->flags, progress);
+            BandCommand run = startBandCommand(a->input, a->output, a->flags);
+            const BandJob& job = run.job;
             const Band& band = job.result.band;
             // === Eigenpairs, then the posterior
             const auto tSolve = Clock::now();
-            const EigenResult e = runSpectrum(job, a->eigen, progress);
+            const EigenResult e = runSpectrum(job, a->eigen, run.progress);
             const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
             const auto tRegress = Clock::now();
-            progress.update("regression", 0);
+            run.progress.update("regression", 0);
             const RegressionResult r = gpRegression(band, e, points, ro);
-            progress.update("regression", 1);
+            run.progress.update("regression", 1);
             const double secondsRegress = std::chrono::duration<double>(Clock::now() - tRegress).count();
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             meta.insertMeta("regression_nu", openvdb::DoubleMetadata(ro.kernel.nu));
@@ -90,11 +85,11 @@ void addRegress(CLI::App& app, Action& action) {
             meta.insertMeta("regression_data", openvdb::StringMetadata(a->data));
             meta.insertMeta("regression_points", openvdb::Int64Metadata(openvdb::Int64(points.value.size())));
             meta.insertMeta("regression_eigenpairs", openvdb::Int32Metadata(int(e.values.size())));
-            writeBandVdb(band, out.tempPath(), meta,
+            writeBandVdb(band, run.out->tempPath(), meta,
                          {{"regression_mean", &r.mean, float(r.priorMean)}, {"regression_variance", &r.variance}}, {}, a->flags.vdb);
-            out.commit();
+            run.out->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (reportOut) {
+            if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["spectrum"] = spectrumReport(e);
                 const std::vector<double> meanAt(r.meanAtData.data(), r.meanAtData.data() + r.meanAtData.size());
@@ -111,8 +106,7 @@ void addRegress(CLI::App& app, Action& action) {
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"spectrum", secondsSpectrum},
                                        {"regression", secondsRegress}, {"total", total}};
                 report["outputs"] = {a->output};
-                std::ofstream(reportOut->tempPath()) << report.dump(2) << "\n";
-                reportOut->commit();
+                commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet)
                 std::cerr << "regress: " << band.size() << " voxels, " << points.value.size() << " data points, "

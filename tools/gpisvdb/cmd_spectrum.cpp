@@ -1,7 +1,6 @@
 // gpisvdb spectrum INPUT -k K -o OUT.vdb: the k lowest eigenpairs of the GPIS Laplacian (paper Sec. 10.1).
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <iostream>
 
 #include "band_job.h"
@@ -32,16 +31,12 @@ void addSpectrum(CLI::App& app, Action& action) {
             const auto start = Clock::now();
             const auto threads = limitThreads(a->flags.model.threads);
             if (a->eigen.count < 1) throw ParameterError("-k must be >= 1");
-            const InputData data = readInput(a->input);
-            AtomicOutput out(a->output);
-            std::unique_ptr<AtomicOutput> reportOut;
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            const Progress progress = makeProgress(a->flags.model.quiet);
-            const BandJob job = runBand(data, a->flags, progress);
+            BandCommand run = startBandCommand(a->input, a->output, a->flags);
+            const BandJob& job = run.job;
             const Band& band = job.result.band;
             // === Eigenpairs, then one float grid per eigenvector
             const auto tSolve = Clock::now();
-            const EigenResult e = runSpectrum(job, a->eigen, progress);
+            const EigenResult e = runSpectrum(job, a->eigen, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             std::vector<std::vector<float>> vectors(std::size_t(e.values.size()));
             std::vector<NamedChannel> grids;
@@ -53,17 +48,16 @@ void addSpectrum(CLI::App& app, Action& action) {
             for (Eigen::Index i = 0; i < e.values.size(); ++i)
                 meta.insertMeta(eigenGridName(int(i)) + "_eigenvalue", openvdb::DoubleMetadata(e.values(i)));
             meta.insertMeta("spectrum_max_residual", openvdb::DoubleMetadata(e.residuals.maxCoeff()));
-            writeBandVdb(band, out.tempPath(), meta, grids, {}, a->flags.vdb);
-            out.commit();
+            writeBandVdb(band, run.out->tempPath(), meta, grids, {}, a->flags.vdb);
+            run.out->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (reportOut) {
+            if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["spectrum"] = spectrumReport(e);
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve},
                                        {"total", total}};
                 report["outputs"] = {a->output};
-                std::ofstream(reportOut->tempPath()) << report.dump(2) << "\n";
-                reportOut->commit();
+                commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet)
                 std::cerr << "spectrum: " << band.size() << " voxels, " << e.values.size() << " eigenpairs, lambda "

@@ -16,6 +16,7 @@
 #include <fstream>
 
 #include "gpisvdb/core/errors.h"
+#include "surface_poly_data.h"
 
 namespace gpisvdb {
 
@@ -128,6 +129,14 @@ void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat form
         return;
     }
     // === VTP
+    const auto pd = surfacePolyData(mesh);
+    auto w = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
+    w->SetFileName(path.c_str());
+    w->SetInputData(pd);
+    if (w->Write() != 1) throw OutputError(path + ": writing the mesh failed");
+}
+
+vtkSmartPointer<vtkPolyData> surfacePolyData(const SurfaceMesh& mesh) {
     auto pd = vtkSmartPointer<vtkPolyData>::New();
     auto pts = vtkSmartPointer<vtkPoints>::New();
     for (const auto& p : mesh.vertices) pts->InsertNextPoint(p[0], p[1], p[2]);
@@ -138,7 +147,7 @@ void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat form
     }
     pd->SetPoints(pts);
     pd->SetPolys(cells);
-    if (mesh.triangles.empty()) {  // a point set: one vertex cell per point, so viewers draw them
+    if (mesh.triangles.empty()) {
         auto verts = vtkSmartPointer<vtkCellArray>::New();
         for (vtkIdType i = 0; i < vtkIdType(mesh.vertices.size()); ++i) verts->InsertNextCell(1, &i);
         pd->SetVerts(verts);
@@ -150,10 +159,7 @@ void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat form
         for (float v : mesh.arrays[k]) a->InsertNextValue(v);
         pd->GetPointData()->AddArray(a);
     }
-    auto w = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
-    w->SetFileName(path.c_str());
-    w->SetInputData(pd);
-    if (w->Write() != 1) throw OutputError(path + ": writing the mesh failed");
+    return pd;
 }
 
 }  // namespace gpisvdb

@@ -32,6 +32,7 @@
 
 #include "gpisvdb/core/errors.h"
 #include "headless_display.h"
+#include "surface_poly_data.h"
 
 namespace gpisvdb {
 
@@ -144,20 +145,6 @@ Ptr<vtkScalarBarActor> colourBar(vtkLookupTable* lut, const std::string& title) 
     return bar;
 }
 
-Ptr<vtkPolyData> polyData(const SurfaceMesh& mesh) {
-    auto pd = Ptr<vtkPolyData>::New();
-    auto pts = Ptr<vtkPoints>::New();
-    for (const auto& v : mesh.vertices) pts->InsertNextPoint(v[0], v[1], v[2]);
-    auto cells = Ptr<vtkCellArray>::New();
-    for (const auto& t : mesh.triangles) {
-        const vtkIdType ids[3] = {t[0], t[1], t[2]};
-        cells->InsertNextCell(3, ids);
-    }
-    pd->SetPoints(pts);
-    pd->SetPolys(cells);
-    return pd;
-}
-
 const std::vector<float>& surfaceArray(const RenderPanel& panel) {
     const SurfaceMesh& m = *panel.surface;
     for (std::size_t k = 0; k < m.arrayNames.size(); ++k)
@@ -185,15 +172,11 @@ void placeCamera(vtkRenderer* r, const RenderOptions& o) {
 }
 
 void addSurface(vtkRenderer* r, const RenderPanel& panel) {
-    auto pd = polyData(*panel.surface);
+    auto pd = surfacePolyData(*panel.surface);
     auto mapper = Ptr<vtkPolyDataMapper>::New();
     if (!panel.array.empty()) {
         const std::vector<float>& values = surfaceArray(panel);
-        auto scalars = Ptr<vtkFloatArray>::New();
-        scalars->SetName(panel.array.c_str());
-        scalars->SetNumberOfValues(vtkIdType(values.size()));
-        for (std::size_t i = 0; i < values.size(); ++i) scalars->SetValue(vtkIdType(i), values[i]);
-        pd->GetPointData()->SetScalars(scalars);
+        pd->GetPointData()->SetActiveScalars(panel.array.c_str());
         const auto range = colourRange(values, panel);
         auto lut = lookupTable(panel.colormap, range, panel.logScale);
         mapper->SetLookupTable(lut);
