@@ -43,7 +43,7 @@ double soupArea(const Samples& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    std::string part = "all", out = "bench/results/band.json", data = "../shared/data";
+    std::string part = "all", out = "bench/results/band.json", data = "data";
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--part" && i + 1 < argc) part = argv[++i];

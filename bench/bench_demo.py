@@ -6,7 +6,7 @@ import argparse, json, os, resource, subprocess, tempfile, time
 ap = argparse.ArgumentParser()
 ap.add_argument("--out", default="bench/results/demo.json")
 ap.add_argument("--exe", default="build/bin/gpisvdb")
-ap.add_argument("--data", default="../shared/data")
+ap.add_argument("--data", default="data")
 args = ap.parse_args()
 
 with tempfile.TemporaryDirectory() as tmp:

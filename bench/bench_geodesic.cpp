@@ -89,7 +89,7 @@ Band bunnyBand(const std::string& data, double sigma) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    std::string part = "all", out = "bench/results/geodesic.json", data = "../shared/data";
+    std::string part = "all", out = "bench/results/geodesic.json", data = "data";
     std::vector<int> sizes = {100, 150, 200};
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];

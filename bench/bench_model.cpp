@@ -52,7 +52,7 @@ double perQuery(const GpisModel& m, const std::vector<Vec3d>& xs, int repeats) {
 
 int main(int argc, char** argv) {
     bool quick = false;
-    std::string out = "bench/results/model.json", data = "../shared/data";
+    std::string out = "bench/results/model.json", data = "data";
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--quick") quick = true;

@@ -217,7 +217,7 @@ nlohmann::json secNineRow(const Problem& p, double tolerance) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    std::string part = "all", out = "bench/results/solve.json", data = "../shared/data";
+    std::string part = "all", out = "bench/results/solve.json", data = "data";
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--part" && i + 1 < argc) part = argv[++i];

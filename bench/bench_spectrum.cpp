@@ -126,7 +126,7 @@ nlohmann::json cholmodRun(const SparseMatrixD& L, const Eigen::VectorXd& mass, i
 }  // namespace
 
 int main(int argc, char** argv) {
-    std::string data = "../shared/data", out, methods = "cholmod,simplicial";
+    std::string data = "data", out, methods = "cholmod,simplicial";
     double sigma = 1.0;
     std::vector<double> scales = {1.0}, counts = {20, 200};
     for (int i = 1; i + 1 < argc; i += 2) {

@@ -40,9 +40,9 @@ DOCUMENTED = {
              for p in ("area", "fig7", "scan", "scanfine", "throughput")],
     "solve": ["build/bin/bench_solve --part all --repeat 3 --out bench/results/solve.json"],
     "geodesic": ["build/bin/bench_geodesic --part all --repeat 3 --out bench/results/geodesic.json"],
-    "spectrum": ["build/bin/bench_spectrum --data ../shared/data --scales 1,0.8,0.63 --counts 20,200 "
+    "spectrum": ["build/bin/bench_spectrum --data data --scales 1,0.8,0.63 --counts 20,200 "
                  "--methods cholmod --out bench/results/spectrum.json",
-                 "build/bin/bench_spectrum --data ../shared/data --scales 1 --counts 20 "
+                 "build/bin/bench_spectrum --data data --scales 1 --counts 20 "
                  "--methods cholmod,simplicial --out bench/results/spectrum.json"],
     "extras": ["build/bin/bench_extras --grid 128 --out bench/results/extras.json"],
     "energy": ["build/bin/validate_energy --out bench/results/energy.json",
@@ -58,7 +58,7 @@ THREAD_USE = {
     "extras": "uses all threads",
     "energy": "uses all threads",
 }
-# Paper (shared/paper.md) Sec. 9: Intel Xeon W-2245, 8 cores; Green's problem of Fig. 5, sigma {0.25, 0.5, 1}
+# Paper (Genest & Coeurjolly, cited in docs/math.md) Sec. 9: Intel Xeon W-2245, 8 cores; Green's problem of Fig. 5, sigma {0.25, 0.5, 1}
 # (the text prints 0.5 twice), bounding boxes 299x477x282, 106x165x101, 83x128x81.
 PAPER_SEC9 = {"band_and_operators_s": [21.0, 4.5, 3.2], "cg_s": [21.0, 6.7, 6.2],
               "box": ["299×477×282", "106×165×101", "83×128×81"]}

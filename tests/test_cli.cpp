@@ -1,9 +1,13 @@
 // End-to-end tests of the gpisvdb program: exit codes, one-line errors, no partial outputs.
 #include <sys/wait.h>
 
+#include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
 #include <filesystem>
+#include <array>
 #include <fstream>
+#include <iomanip>
+#include <random>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -17,12 +21,17 @@
 #include "gpisvdb/output/mean_surface.h"
 #include "cli_run.h"
 #include "gpisvdb/input/read_input.h"
+#include "gpisvdb/kacrice/kac_rice.h"
+#include "gpisvdb/model/direct_gpis.h"
 #include "png_stats.h"
 #include "helpers.h"
 
 namespace fs = std::filesystem;
 
 using namespace gpisvdb::test::cli;
+using gpisvdb::Mat3d;
+using gpisvdb::Mat4d;
+using gpisvdb::Vec3d;
 
 TEST_CASE("cli: info describes the bunny", "[cli]") {
     const Run r = run("info " + gpisvdb::test::dataPath("bunny.obj"));
@@ -50,24 +59,152 @@ TEST_CASE("cli: evaluate writes one row per query point with the documented head
     CHECK(rows == 3);
 }
 
-TEST_CASE("cli: exact and Barnes-Hut evaluate agree to the stated accuracy", "[cli]") {
-    const std::string pts = temp("pts2.xyz", "0 0 0\n-0.5 1 2.5\n");
-    const std::string a = temp("bh.csv"), b = temp("exact.csv");
-    const std::string in = gpisvdb::test::dataPath("bunny.obj");
-    REQUIRE(run("evaluate " + in + " --at " + pts + " -o " + a).code == 0);
-    REQUIRE(run("evaluate " + in + " --at " + pts + " -o " + b + " --exact --threads 1").code == 0);
-    std::ifstream fa(a), fb(b);
-    std::string la, lb;
-    std::getline(fa, la), std::getline(fb, lb);
-    while (std::getline(fa, la) && std::getline(fb, lb)) {
-        std::stringstream sa(la), sb(lb);
-        std::string ta, tb;
-        for (int col = 0; std::getline(sa, ta, ',') && std::getline(sb, tb, ','); ++col)
-            if (col == 3) CHECK(std::stod(ta) == Approx(std::stod(tb)).margin(1e-3));  // γ
+namespace {
+/// The numeric rows of a CSV file (header skipped).
+std::vector<std::vector<double>> readCsvRows(const std::string& path) {
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);
+    std::vector<std::vector<double>> rows;
+    while (std::getline(in, line)) {
+        std::stringstream s(line);
+        std::vector<double> row;
+        for (std::string cell; std::getline(s, cell, ',');) row.push_back(std::strtod(cell.c_str(), nullptr));  // stod throws on subnormals
+        rows.push_back(row);
     }
+    return rows;
 }
 
-TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exit and no output", "[cli]") {
+/// μ and T at u by plain Monte Carlo from the Gaussian (φ, ∇φ) of one CSV row (columns 3..16), following the
+/// Kac–Rice formulas of docs/model.md / kac_rice.h but with pseudo-random draws instead of the library's QMC rule.
+std::pair<double, Mat3d> monteCarloKacRice(const std::vector<double>& row, double u, std::mt19937_64& rng, int draws) {
+    const double gamma = row[3];
+    const Vec3d grad(row[4], row[5], row[6]);
+    Mat4d C;
+    for (int r = 0, k = 7; r < 4; ++r)
+        for (int c = r; c < 4; ++c, ++k) C(r, c) = C(c, r) = row[k];
+    const double c00 = C(0, 0);
+    const Vec3d cg0 = C.block<3, 1>(1, 0);
+    const Vec3d m = grad + cg0 * (u - gamma) / c00;
+    const Mat3d S = C.block<3, 3>(1, 1) - cg0 * cg0.transpose() / c00;
+    Eigen::SelfAdjointEigenSolver<Mat3d> eig(S);
+    const Mat3d L = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+    const double p = std::exp(-0.5 * (u - gamma) * (u - gamma) / c00) / std::sqrt(2 * M_PI * c00);
+    std::normal_distribution<double> n;
+    double norm = 0;
+    Mat3d T = Mat3d::Zero();
+    for (int k = 0; k < draws; ++k) {
+        const Vec3d x = m + L * Vec3d(n(rng), n(rng), n(rng));
+        const double len = x.norm();
+        norm += len;
+        T += len * Mat3d::Identity() - x * x.transpose() / len;
+    }
+    return {p * norm / draws, p * T / draws};
+}
+}  // namespace
+
+TEST_CASE("cli: exact and Barnes-Hut evaluate agree with the direct sum to the stated accuracy in every column", "[cli]") {
+    // The model the CLI builds from these flags, built here by the library's reference direct sum.
+    const std::string in = gpisvdb::test::dataPath("bunny.obj");
+    const double sigmaRel = 0.5, smoothingRel = 0.4, iso = 0.5;  // iso: the winding model's level (evaluate --help)
+    const gpisvdb::Samples s = gpisvdb::makeSamples(gpisvdb::readInput(in), {sigmaRel}).samples;
+    const gpisvdb::DirectGpis direct(s, smoothingRel * s.lengthScale);
+
+    // 128 query points: 80 samples moved off the surface by up to 1.5 σ (where μ is large), 48 anywhere in the box.
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> unit(0, 1);
+    std::vector<Vec3d> xs;
+    Vec3d lo = s.position[0], hi = s.position[0];
+    for (const Vec3d& p : s.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    for (std::size_t i = 0; xs.size() < 80; i += s.size() / 80)
+        xs.push_back(s.position[i] + 1.5 * sigmaRel * s.lengthScale * unit(rng) * gpisvdb::test::randomUnit(rng));
+    while (xs.size() < 128) {
+        const Vec3d t(unit(rng), unit(rng), unit(rng));
+        xs.push_back(lo - 0.1 * (hi - lo) + 1.2 * (hi - lo).cwiseProduct(t));
+    }
+    std::ostringstream text;
+    text << std::setprecision(17);
+    for (const Vec3d& x : xs) text << x.x() << ' ' << x.y() << ' ' << x.z() << '\n';
+    const std::string pts = temp("pts2.xyz", text.str());
+    const std::string a = temp("bh.csv"), b = temp("exact.csv");
+    const std::string flags = " --sigma 0.5 --smoothing 0.4 --quiet";
+    REQUIRE(run("evaluate " + in + " --at " + pts + " -o " + a + flags).code == 0);
+    REQUIRE(run("evaluate " + in + " --at " + pts + " -o " + b + flags + " --exact --threads 1").code == 0);
+    const auto bh = readCsvRows(a), exact = readCsvRows(b);
+    REQUIRE(bh.size() == xs.size());
+    REQUIRE(exact.size() == xs.size());
+    const std::vector<gpisvdb::ValueGradient> ref = direct.evaluate(xs);
+
+    // Scales of docs/model.md ("Error norm"), from the direct sum over these points.
+    double gradScale = 0;
+    for (const auto& v : ref) gradScale = std::max(gradScale, v.mean.tail<3>().norm());
+    Mat4d covScale = Mat4d::Zero();
+    for (const auto& v : ref)
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) covScale(r, c) = std::max(covScale(r, c), std::sqrt(v.cov(r, r) * v.cov(c, c)));
+    REQUIRE(gradScale > 0);
+    // Column k (3..16) of a row against the reference: |got − ref| / scale.
+    auto relError = [&](const std::vector<double>& row, const gpisvdb::ValueGradient& v, int k) {
+        if (k == 3) return std::abs(row[3] - v.mean[0]);
+        if (k < 7) return std::abs(row[k] - v.mean[k - 3]) / gradScale;
+        for (int r = 0, j = 7; r < 4; ++r)
+            for (int c = r; c < 4; ++c, ++j)
+                if (j == k) return std::abs(row[k] - v.cov(r, c)) / covScale(r, c);
+        return 1e300;
+    };
+    std::array<double, 17> worstBh{}, worstExact{};
+    double muMax = 0;
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+        for (int d = 0; d < 3; ++d) {
+            CHECK(bh[i][d] == Approx(xs[i][d]).margin(1e-12));
+            CHECK(exact[i][d] == Approx(xs[i][d]).margin(1e-12));
+        }
+        for (int k = 3; k < 17; ++k) {
+            worstBh[k] = std::max(worstBh[k], relError(bh[i], ref[i], k));
+            worstExact[k] = std::max(worstExact[k], relError(exact[i], ref[i], k));
+        }
+        muMax = std::max(muMax, exact[i][17]);
+    }
+    for (int k = 3; k < 17; ++k) {
+        INFO("column " << k << ": Barnes-Hut " << worstBh[k] << ", --exact " << worstExact[k]);
+        CHECK(worstBh[k] <= 1e-3);      // the documented accuracy of the default beta
+        CHECK(worstExact[k] <= 1e-12);  // --exact is the direct sum, printed to 17 digits
+    }
+
+    // μ and T (columns 17..23) of each file against an independent Monte Carlo estimate from that row's own
+    // Gaussian, and --exact's against the direct sum's; tr T = 2μ and T ⪰ 0 (kac_rice.h).
+    REQUIRE(muMax > 1);  // points near the surface: μ of order 1/σ
+    std::mt19937_64 mc(11);
+    const gpisvdb::QmcRule rule(512);
+    int nonzero = 0;
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+        const gpisvdb::SurfaceDensity d = gpisvdb::kacRice(ref[i], iso, rule);
+        CHECK(exact[i][17] == Approx(d.mu).epsilon(1e-9).margin(1e-12 * muMax));
+        for (const auto* row : {&bh[i], &exact[i]}) {
+            const auto& r = *row;
+            Mat3d T;
+            for (int p = 0, k = 18; p < 3; ++p)
+                for (int q = p; q < 3; ++q, ++k) T(p, q) = T(q, p) = r[k];
+            INFO("point " << i << " mu " << r[17]);
+            CHECK(T.trace() == Approx(2 * r[17]).epsilon(1e-9).margin(1e-12 * muMax));
+            CHECK(Eigen::SelfAdjointEigenSolver<Mat3d>(T).eigenvalues().minCoeff() >= -1e-9 * muMax);
+            if (r[17] < 1e-3 * muMax) continue;
+            ++nonzero;
+            const auto [mu, Tmc] = monteCarloKacRice(r, iso, mc, 20000);
+            CHECK(r[17] == Approx(mu).epsilon(0.02));
+            CHECK((T - Tmc).cwiseAbs().maxCoeff() <= 0.02 * r[17]);
+        }
+        if (exact[i][17] >= 1e-3 * muMax) {
+            Mat3d T;
+            for (int p = 0, k = 18; p < 3; ++p)
+                for (int q = p; q < 3; ++q, ++k) T(p, q) = T(q, p) = exact[i][k];
+            CHECK((T - d.T).cwiseAbs().maxCoeff() <= 1e-9 * muMax);
+        }
+    }
+    CHECK(nonzero >= 100);  // both files, so at least 50 points with a sizeable μ
+}
+
+TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag, a non-zero exit and no output", "[cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
     const std::string pts = temp("pts3.xyz", "0 0 0\n");
     const std::string out = temp("bad.csv");
@@ -84,15 +221,15 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"evaluate " + temp("r.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n") + " --at " + pts + " -o " + out, "out of range"},
         {"evaluate " + temp("z.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n") + " --at " + pts + " -o " + out, "non-zero area"},
         {"evaluate " + temp("nn.xyz", "0 0 0\n1 0 0\n") + " --at " + pts + " -o " + out, "no normals"},
-        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --sigma 0", "--sigma"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --sigma 0", "relative noise σ (--sigma) must be finite and > 0"},
         {"evaluate " + bunny + " --at " + pts + " -o " + out + " --sigma -1", "--sigma"},
         {"evaluate " + bunny + " --at " + pts + " -o " + out + " --smoothing 0", "--smoothing"},
-        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --beta 0.5", "--beta"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --beta 0.5", "criterion β (--beta) must be finite and > 1"},
         {"evaluate " + bunny + " --at " + pts + " -o " + out + " --threads -2", "--threads"},
         {"evaluate " + bunny + " --at " + temp("q.xyz", "0 0 x\n") + " -o " + out, "not a finite number"},
         {"evaluate " + bunny + " --at " + pts + " -o /nonexistent-dir/out.csv", "does not exist"},
         {"info " + temp("nan.xyz", "0 0 0 0 0 1\n1 nan 0 0 0 1\n"), "non-finite"},
-        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --qmc 0", "--qmc"},
+        {"evaluate " + bunny + " --at " + pts + " -o " + out + " --qmc 0", "QMC point count S (--qmc) must be in [1, 16777216]"},
         {"band " + bunny + " -o " + vdb + " --eta 0", "--eta"},
         {"band " + bunny + " -o " + vdb + " --eta -1", "--eta"},
         {"band " + bunny + " -o " + vdb + " --qmc 0", "--qmc"},
@@ -110,7 +247,8 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"geodesic " + bunny + " --source 0,6,0,1 -o " + vdb, "X,Y,Z"},
         {"spectrum " + bunny + " -k 0 -o " + vdb, "-k"},
         {"spectrum " + bunny + " -k 100000 -o " + vdb + " --voxel-size 0.4 --sigma 2", "between 1 and"},
-        {"spectrum " + bunny + " -k 200 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M", "eigenpairs of a band"},
+        {"spectrum " + bunny + " -k 200 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M",
+         "allowed (--max-memory): lower the eigenpair count (-k), use a coarser voxel size (--voxel-size), or raise"},
         {"spectrum " + bunny + " -k 4 --eigen-tolerance 0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "tolerance"},
         {"regress " + bunny + " --data /nonexistent.csv -o " + vdb, "no such file"},
         {"regress " + bunny + " --data " + temp("cols.csv", "x,y,z,v\n1,2,3\n") + " -o " + vdb, "4 or 5 columns"},
@@ -133,6 +271,7 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         {"hodge " + bunny + " --field " + temp("notvdb.vdb", "hello") + " -o " + vdb + " --voxel-size 0.4 --sigma 2",
          "cannot be read as an OpenVDB file"},
         {"hodge " + bunny + " --preset mixed --tolerance -1 -o " + vdb, "--tolerance"},
+        {"render " + vdb + " --grid mu -o " + temp("flag.png") + " --slice w=1", "slice plane (--slice): expected axis=value"},
     };
     for (const Case& c : cases) {
         fs::remove(out);
@@ -141,12 +280,14 @@ TEST_CASE("cli: bad input and parameters give one line on stderr, a non-zero exi
         CHECK(r.code == 1);
         CHECK(lines(r.err) == 1);
         CHECK_THAT(r.err, Catch::Contains(c.expect));
+        // The engine names its Options fields; the command line shows the flags in their place.
+        CHECK_THAT(r.err, !Catch::Contains("Options::") && !Catch::Contains("RenderPanel::"));
         CHECK_FALSE(leftovers(out));
         CHECK_FALSE(leftovers(vdb));
     }
 }
 
-TEST_CASE("cli: usage errors exit 2; --help and --version exit 0", "[cli]") {
+TEST_CASE("cli: usage errors exit 2, --help and --version exit 0", "[cli]") {
     CHECK(run("").code == 2);
     CHECK(run("evaluate").code == 2);
     CHECK(run("evaluate x.obj --at p.xyz -o o.csv --no-such-flag").code == 2);
@@ -160,7 +301,63 @@ TEST_CASE("cli: usage errors exit 2; --help and --version exit 0", "[cli]") {
     CHECK(run("--version").out.find("gpisvdb") != std::string::npos);
 }
 
-TEST_CASE("cli: band writes a readable .vdb and a JSON report with the documented fields", "[cli]") {
+namespace {
+openvdb::FloatGrid::Ptr readFloatGrid(const std::string& vdb, const std::string& name) {
+    openvdb::initialize();
+    openvdb::io::File file(vdb);
+    file.open();
+    const auto grid = file.hasGrid(name) ? openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid(name)) : nullptr;
+    file.close();
+    return grid;
+}
+
+/// Linear index (OpenVDB leaf order, docs/band.md) and coordinate of the active voxel of `mu` nearest a world point.
+std::pair<std::size_t, openvdb::Coord> nearestActiveVoxel(const openvdb::FloatGrid& mu, const openvdb::Vec3d& world) {
+    std::size_t index = 0, bestIndex = 0;
+    openvdb::Coord best;
+    double bestDist = 1e300;
+    for (auto it = mu.cbeginValueOn(); it; ++it, ++index) {
+        const double d = (mu.indexToWorld(it.getCoord()) - world).lengthSqr();
+        if (d < bestDist) bestDist = d, best = it.getCoord(), bestIndex = index;
+    }
+    return {bestIndex, best};
+}
+
+/// The `band` and `parameters` parts of a report (docs/band.md) against the file's own "mu" grid (count, voxel
+/// size from its transform, mass h³ Σ μ, bounding box, μ > η everywhere) and against the input read here (ℓ, σ).
+void checkBandReport(const nlohmann::json& report, const std::string& vdb, const std::string& input, double sigmaRel,
+                     double voxelSize) {
+    const auto mu = readFloatGrid(vdb, "mu");
+    REQUIRE(mu);
+    const auto& band = report["band"];
+    const auto& par = report["parameters"];
+    const double h = mu->voxelSize()[0];
+    CHECK(h == Approx(voxelSize).epsilon(1e-12));
+    CHECK(band["voxel_size"].get<double>() == Approx(h).epsilon(1e-12));
+    CHECK(band["voxels"].get<openvdb::Index64>() == mu->activeVoxelCount());
+    double sum = 0, lowest = 1e300;
+    for (auto it = mu->cbeginValueOn(); it; ++it) sum += *it, lowest = std::min(lowest, double(*it));
+    CHECK(band["mass"].get<double>() == Approx(h * h * h * sum).epsilon(1e-9));
+    const openvdb::CoordBBox box = mu->evalActiveVoxelBoundingBox();
+    for (int d = 0; d < 3; ++d) {
+        CHECK(band["bbox_voxels"][d].get<int>() == box.dim()[d]);
+        CHECK(band["bbox_min"][d].get<int>() == box.min()[d]);
+    }
+    const double eta = par["eta"].get<double>();
+    CHECK(eta == Approx(par["eta_rel"].get<double>() * band["median_mu_at_samples"].get<double>()).epsilon(1e-12));
+    CHECK(lowest >= eta * (1 - 1e-6));  // Ω = {μ > η}
+    CHECK(lowest < 4 * eta);             // ... and its edge reaches down to η (26-neighbour BFS, h ≲ the μ width)
+    const gpisvdb::Samples s = gpisvdb::makeSamples(gpisvdb::readInput(input), {sigmaRel}).samples;
+    CHECK(report["input"]["samples"].get<std::size_t>() == s.size());
+    CHECK(report["input"]["length_scale"].get<double>() == Approx(s.lengthScale).epsilon(1e-12));
+    CHECK(par["sigma_rel"].get<double>() == sigmaRel);
+    CHECK(par["voxel_size"].get<double>() == Approx(h).epsilon(1e-12));
+    CHECK(par["sigma"].get<double>() == Approx(sigmaRel * s.lengthScale).epsilon(1e-12));
+    CHECK(par["smoothing"].get<double>() == Approx(par["smoothing_rel"].get<double>() * s.lengthScale).epsilon(1e-12));
+}
+}  // namespace
+
+TEST_CASE("cli: band writes a readable .vdb and a JSON report whose values match the grids", "[cli]") {
     const std::string vdb = temp("bunny.vdb"), json = temp("bunny.json");
     const Run r = run("band " + gpisvdb::test::dataPath("bunny.obj") + " -o " + vdb + " --report " + json +
                       " --sigma 2 --voxel-size 0.4 --quiet --threads 2");
@@ -174,21 +371,85 @@ TEST_CASE("cli: band writes a readable .vdb and a JSON report with the documente
                             "\"sigma_rel\"", "\"sigma\"", "\"model\"", "\"band\"", "\"total\"", "\"peak_rss_bytes\"",
                             "\"band_bytes_per_voxel\""})
         CHECK_THAT(report, Catch::Contains(key));
+    checkBandReport(nlohmann::json::parse(report), vdb, gpisvdb::test::dataPath("bunny.obj"), 2, 0.4);
     const int status = std::system(("vdb_print " + vdb + " > /dev/null 2>&1").c_str());
     CHECK(WEXITSTATUS(status) == 0);
+    CHECK_FALSE(readFloatGrid(vdb, "selling_weight_0"));  // only with --stencils
 }
 
-TEST_CASE("cli: green writes the band grids and 'green', with solver fields in the report", "[cli]") {
-    const std::string vdb = temp("green.vdb"), json = temp("green.json");
-    const Run r = run("green " + gpisvdb::test::dataPath("bunny.obj") + " --source 0.5,6,1 -o " + vdb + " --report " + json +
-                      " --sigma 2 --voxel-size 0.4 --quiet");
+TEST_CASE("cli: band --stencils writes Selling offsets whose widths are stencil_width and the report's maximum", "[cli]") {
+    const std::string vdb = temp("stencils.vdb"), json = temp("stencils.json");
+    const Run r = run("band " + gpisvdb::test::dataPath("bunny.obj") + " -o " + vdb + " --report " + json +
+                      " --sigma 2 --voxel-size 0.4 --quiet --stencils");
     INFO(r.err);
     REQUIRE(r.code == 0);
+    const auto width = readFloatGrid(vdb, "stencil_width");
+    REQUIRE(width);
+    openvdb::io::File file(vdb);
+    file.open();
+    std::vector<openvdb::Vec3SGrid::Ptr> offsets;
+    std::vector<openvdb::FloatGrid::Ptr> weights;
+    for (int k = 0; k < 6; ++k) {
+        offsets.push_back(openvdb::gridPtrCast<openvdb::Vec3SGrid>(file.readGrid("selling_offset_" + std::to_string(k))));
+        weights.push_back(openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("selling_weight_" + std::to_string(k))));
+        REQUIRE(offsets.back());
+        REQUIRE(weights.back());
+    }
+    file.close();
+    float widest = 0;
+    for (auto it = width->cbeginValueOn(); it; ++it) {
+        float w = 0;
+        for (int k = 0; k < 6; ++k) {
+            const openvdb::Vec3s e = offsets[std::size_t(k)]->tree().getValue(it.getCoord());
+            CHECK(weights[std::size_t(k)]->tree().getValue(it.getCoord()) >= 0);
+            w = std::max(w, std::abs(e[0]) + std::abs(e[1]) + std::abs(e[2]));
+        }
+        CHECK(w == *it);
+        widest = std::max(widest, w);
+    }
     std::ifstream in(json);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    for (const char* key : {"\"iterations\"", "\"relative_residual\"", "\"operators\"", "\"solve\""})
-        CHECK_THAT(ss.str(), Catch::Contains(key));
+    CHECK(nlohmann::json::parse(in)["band"]["max_stencil_l1"].get<double>() == widest);
+}
+
+TEST_CASE("cli: green writes 'green': positive, largest at the nearest voxel to the source, symmetric, as the report says", "[cli]") {
+    const std::string vdb = temp("green.vdb"), json = temp("green.json");
+    const Run r = run("green " + gpisvdb::test::dataPath("bunny.obj") + " --source 0.5,6,1 -o " + vdb + " --report " + json +
+                      " --sigma 2 --voxel-size 0.4 --tolerance 1e-6 --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
+    checkBandReport(report, vdb, gpisvdb::test::dataPath("bunny.obj"), 2, 0.4);
+    CHECK(report["timings_s"].contains("operators"));
+    CHECK(report["solver"]["tolerance"].get<double>() == 1e-6);
+    CHECK(report["solver"]["iterations"].get<int>() >= 1);
+    CHECK(report["solver"]["relative_residual"].get<double>() <= 1e-6);
+    // The source snaps to the band voxel nearest (0.5, 6, 1), found here from the grid and its transform.
+    const auto mu = readFloatGrid(vdb, "mu");
+    const auto G = readFloatGrid(vdb, "green");
+    REQUIRE((mu && G));
+    const auto [yIndex, y] = nearestActiveVoxel(*mu, {0.5, 6, 1});
+    CHECK(report["green"]["source_index"].get<std::size_t>() == yIndex);
+    for (int d = 0; d < 3; ++d) CHECK(report["green"]["source_voxel"][d].get<int>() == y[d]);
+    // L f = M δ_y with an M-matrix L: f > 0 on the band, largest at y.
+    CHECK(G->activeVoxelCount() == mu->activeVoxelCount());
+    const float atY = G->tree().getValue(y);
+    float lowest = atY, highest = atY;
+    for (auto it = G->cbeginValueOn(); it; ++it) lowest = std::min(lowest, *it), highest = std::max(highest, *it);
+    CHECK(lowest > 0);
+    CHECK(highest == atY);
+    // Symmetry G(x, y) = G(y, x): a second run from a voxel x elsewhere on the bunny (its centre, from the transform).
+    const openvdb::Coord x = nearestActiveVoxel(*mu, {3, 4, -2}).second;
+    const openvdb::Vec3d xw = mu->indexToWorld(x);
+    const std::string vdb2 = temp("green2.vdb");
+    std::ostringstream src;
+    src << std::setprecision(17) << xw[0] << ',' << xw[1] << ',' << xw[2];
+    REQUIRE(run("green " + gpisvdb::test::dataPath("bunny.obj") + " --source " + src.str() + " -o " + vdb2 +
+                " --sigma 2 --voxel-size 0.4 --preconditioner ic --quiet").code == 0);
+    const auto G2 = readFloatGrid(vdb2, "green");
+    REQUIRE(G2);
+    INFO("G(x,y) " << G->tree().getValue(x) << ", G(y,x) " << G2->tree().getValue(y));
+    CHECK(G->tree().getValue(x) > 1e-3 * highest);
+    CHECK(G->tree().getValue(x) == Approx(G2->tree().getValue(y)).epsilon(1e-4));
     // mesh: every grid the task wrote can be sampled on the mean surface; bad requests fail cleanly.
     const std::string ply = temp("green.ply");
     CHECK(run("mesh " + vdb + " --grid green --grid normal -o " + ply + " --quiet").code == 0);
@@ -209,7 +470,7 @@ TEST_CASE("cli: green writes the band grids and 'green', with solver fields in t
     CHECK_THAT(ts.str(), Catch::Contains("Name: green"));
 }
 
-TEST_CASE("cli: hodge writes vec3 parts that sum to the input, and reads a field back from a .vdb", "[cli]") {
+TEST_CASE("cli: hodge writes vec3 parts that sum to the input with the reported S-norms, and reads a field back from a .vdb", "[cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
     const std::string vdb = temp("hodge.vdb"), json = temp("hodge.json"), again = temp("hodge2.vdb");
     const std::string common = " --sigma 2 --voxel-size 0.4 --quiet";
@@ -232,7 +493,41 @@ TEST_CASE("cli: hodge writes vec3 parts that sum to the input, and reads a field
     auto f = Vf->getConstAccessor();
     for (auto it = V->cbeginValueOn(); it; ++it)
         CHECK((*it - g.getValue(it.getCoord()) - f.getValue(it.getCoord())).length() < 1e-5 * (1 + it->length()));
+    // The report's S-norms and normalised S-inner product, from the grids: S = μ² T⁻¹, T's spectrum floored at
+    // 1e-6 λmax (tasks/hodge.h), summed with h³.
+    const auto Td = grid("T_diag"), To = grid("T_offdiag");
+    REQUIRE((Td && To));
     file.close();
+    checkBandReport(report, vdb, bunny, 2, 0.4);
+    const auto mu = readFloatGrid(vdb, "mu");
+    const double h3 = std::pow(mu->voxelSize()[0], 3);
+    auto td = Td->getConstAccessor();
+    auto to = To->getConstAccessor();
+    double vv = 0, gg = 0, ff = 0, gf = 0;
+    for (auto it = mu->cbeginValueOn(); it; ++it) {
+        const openvdb::Coord c = it.getCoord();
+        const openvdb::Vec3f d = td.getValue(c), o = to.getValue(c);
+        Mat3d T;
+        T << d[0], o[0], o[1], o[0], d[1], o[2], o[1], o[2], d[2];
+        Eigen::SelfAdjointEigenSolver<Mat3d> eig(T);
+        const Vec3d lambda = eig.eigenvalues().cwiseMax(1e-6 * eig.eigenvalues().maxCoeff());
+        const Mat3d S = double(*it) * double(*it) * eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() *
+                        eig.eigenvectors().transpose();
+        auto vec = [&](const openvdb::Vec3SGrid::ConstAccessor& acc) {
+            const openvdb::Vec3f v = acc.getValue(c);
+            return Vec3d(v[0], v[1], v[2]);
+        };
+        const Vec3d a = vec(V->getConstAccessor()), b = vec(g), e = vec(f);
+        vv += h3 * a.dot(S * a), gg += h3 * b.dot(S * b), ff += h3 * e.dot(S * e), gf += h3 * b.dot(S * e);
+    }
+    const auto& hr = report["hodge"];
+    CHECK(hr["s_norm_input"].get<double>() == Approx(std::sqrt(vv)).epsilon(1e-4));
+    CHECK(hr["s_norm_gradient"].get<double>() == Approx(std::sqrt(gg)).epsilon(1e-4));
+    CHECK(hr["s_norm_free"].get<double>() == Approx(std::sqrt(ff)).epsilon(1e-4));
+    CHECK(hr["s_inner_product"].get<double>() == Approx(gf / std::sqrt(gg * ff)).margin(1e-4));
+    CHECK(gg > 1e-3 * vv);  // the mixed preset has both parts
+    CHECK(ff > 1e-3 * vv);
+    CHECK(report["solver"]["relative_residual"].get<double>() <= report["solver"]["tolerance"].get<double>());
     // The written input read back as --field (one file, several vector grids: named) gives the same split.
     CHECK(run("hodge " + bunny + " --field " + vdb + " -o " + again + common).code == 1);
     const Run back = run("hodge " + bunny + " --field " + vdb + ":hodge_input -o " + again + common);
@@ -252,7 +547,7 @@ TEST_CASE("cli: hodge writes vec3 parts that sum to the input, and reads a field
     CHECK_THAT(noGrid.err, Catch::Contains("no vector grid named 'nosuch'"));
 }
 
-TEST_CASE("cli: distance writes a dense smoothed_distance grid, a level set and its mesh", "[cli]") {
+TEST_CASE("cli: distance writes a dense smoothed_distance grid, a level set and its mesh, as the report says", "[cli]") {
     const std::string vdb = temp("distance.vdb"), json = temp("distance.json"), ply = temp("offset.ply");
     const Run r = run("distance " + gpisvdb::test::dataPath("bunny.obj") + " --alpha 5 --grid-voxel-size 0.5 --level 0.3 --mesh " +
                       ply + " -o " + vdb + " --report " + json + " --sigma 2 --voxel-size 0.4 --quiet");
@@ -271,7 +566,26 @@ TEST_CASE("cli: distance writes a dense smoothed_distance grid, a level set and 
     CHECK(level->getGridClass() == openvdb::GRID_LEVEL_SET);
     CHECK(d->activeVoxelCount() == report["distance"]["points"].get<openvdb::Index64>());
     for (auto it = d->cbeginValueOn(); it; ++it) CHECK(std::isfinite(*it));
-    CHECK(std::ifstream(ply).good());
+    // Report values from the grids: voxel size from the transform, dimensions of the active box, the level set
+    // d − level voxel by voxel, and the mesh's face count from the PLY header.
+    const auto& rd = report["distance"];
+    CHECK(rd["voxel_size"].get<double>() == Approx(d->voxelSize()[0]).epsilon(1e-12));
+    CHECK(d->voxelSize()[0] == Approx(0.5).epsilon(1e-12));
+    const openvdb::CoordBBox box = d->evalActiveVoxelBoundingBox();
+    for (int k = 0; k < 3; ++k) CHECK(rd["grid_dims"][k].get<int>() == box.dim()[k]);
+    CHECK(box.volume() == d->activeVoxelCount());  // dense
+    CHECK(rd["level"].get<double>() == 0.3);
+    CHECK(level->activeVoxelCount() == d->activeVoxelCount());
+    auto la = level->getConstAccessor();
+    float worst = 0;
+    for (auto it = d->cbeginValueOn(); it; ++it) worst = std::max(worst, std::abs(la.getValue(it.getCoord()) - (*it - 0.3f)));
+    CHECK(worst <= 1e-6f);
+    std::ifstream plyIn(ply, std::ios::binary);
+    REQUIRE(plyIn.good());
+    long faces = -1;
+    for (std::string line; std::getline(plyIn, line) && line.rfind("end_header", 0) != 0;)
+        if (line.rfind("element face ", 0) == 0) faces = std::stol(line.substr(13));
+    CHECK(faces == rd["mesh_triangles"].get<long>());
 }
 
 TEST_CASE("cli: --model regression runs the band and green commands, from generated or read labels", "[cli]") {
@@ -317,7 +631,7 @@ TEST_CASE("cli: --model regression runs the band and green commands, from genera
     CHECK(fromFile.code == 0);
 }
 
-TEST_CASE("cli: spectrum writes eigen_000 ... with ascending eigenvalues and small residuals in the report", "[cli]") {
+TEST_CASE("cli: spectrum writes k M-orthonormal eigen_000 ... grids, their ascending eigenvalues and small residuals in the report", "[cli]") {
     const std::string vdb = temp("spectrum.vdb"), json = temp("spectrum.json");
     const Run r = run("spectrum " + gpisvdb::test::dataPath("bunny.obj") + " -k 6 -o " + vdb + " --report " + json +
                       " --sigma 2 --voxel-size 0.4 --quiet");
@@ -338,9 +652,44 @@ TEST_CASE("cli: spectrum writes eigen_000 ... with ascending eigenvalues and sma
     const auto meta = file.getMetadata();
     CHECK((*meta)["eigen_001_eigenvalue"]);
     CHECK(meta->metaValue<double>("eigen_001_eigenvalue") == Approx(values[1].get<double>()));
-    const auto e0 = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("eigen_000"));
-    CHECK(e0->activeVoxelCount() == report["band"]["voxels"].get<openvdb::Index64>());
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        char name[64];
+        std::snprintf(name, sizeof name, "eigen_%03zu_eigenvalue", i);
+        CHECK(meta->metaValue<double>(name) == Approx(values[i].get<double>()).epsilon(1e-12));
+    }
     file.close();
+    checkBandReport(report, vdb, gpisvdb::test::dataPath("bunny.obj"), 2, 0.4);
+    // From the grids: M-orthonormal, Σ u_i u_j μ h³ = δ_ij (float storage), each sign fixed so its largest entry
+    // is positive, the ground mode one-signed (docs/spectrum.md).
+    const auto mu = readFloatGrid(vdb, "mu");
+    std::vector<openvdb::FloatGrid::Ptr> u;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        char name[64];
+        std::snprintf(name, sizeof name, "eigen_%03zu", i);
+        u.push_back(readFloatGrid(vdb, name));
+        REQUIRE(u.back());
+        CHECK(u.back()->activeVoxelCount() == mu->activeVoxelCount());
+    }
+    const double h = mu->voxelSize()[0];
+    double gramError = 0;
+    for (std::size_t i = 0; i < u.size(); ++i)
+        for (std::size_t j = i; j < u.size(); ++j) {
+            double g = 0;
+            auto ai = u[i]->getConstAccessor();
+            auto aj = u[j]->getConstAccessor();
+            for (auto it = mu->cbeginValueOn(); it; ++it)
+                g += double(ai.getValue(it.getCoord())) * aj.getValue(it.getCoord()) * *it * h * h * h;
+            gramError = std::max(gramError, std::abs(g - (i == j ? 1.0 : 0.0)));
+        }
+    CHECK(gramError < 1e-4);
+    for (const auto& e : u) {
+        float lo = 0, hi = 0;
+        e->evalMinMax(lo, hi);
+        CHECK(hi >= -lo);
+    }
+    float lo0 = 0, hi0 = 0;
+    u[0]->evalMinMax(lo0, hi0);
+    CHECK(lo0 >= -1e-4f * hi0);
 }
 
 TEST_CASE("cli: regress interpolates exact data and writes regression_mean and regression_variance", "[cli]") {
@@ -372,7 +721,8 @@ TEST_CASE("cli: regress interpolates exact data and writes regression_mean and r
         CHECK(g["mean_at_data"][j].get<double>() == Approx(values[j]).margin(1e-5));
         CHECK(g["variance_at_data"][j].get<double>() <= 1e-5 * g["amplitude"].get<double>());
     }
-    CHECK(report["spectrum"]["eigenvalues"].size() == 30);
+    CHECK(report["spectrum"]["eigenvalues"].size() == 30);  // -k 30
+    checkBandReport(report, vdb, gpisvdb::test::dataPath("bunny.obj"), 2, 0.4);
     openvdb::initialize();
     openvdb::io::File file(vdb);
     file.open();
@@ -386,7 +736,7 @@ TEST_CASE("cli: regress interpolates exact data and writes regression_mean and r
     file.close();
 }
 
-TEST_CASE("cli: geodesic writes 'geodesic' and a bunny path between far points that keeps near the mean surface", "[cli]") {
+TEST_CASE("cli: geodesic writes 'geodesic', 0 at the source and as reported at the targets, and bunny paths that keep near the mean surface", "[cli]") {
     const std::string vdb = temp("geo.vdb"), json = temp("geo.json"), paths = temp("geo_paths.json"), obj = temp("geo_paths.obj"),
                       vtp = temp("geo_paths.vtp");
     const std::string common = "geodesic " + gpisvdb::test::dataPath("bunny.obj") +
@@ -395,8 +745,11 @@ TEST_CASE("cli: geodesic writes 'geodesic' and a bunny path between far points t
     INFO(r.err);
     REQUIRE(r.code == 0);
     const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
+    checkBandReport(report, vdb, gpisvdb::test::dataPath("bunny.obj"), 0.5, 0.15);
+    const auto mu = readFloatGrid(vdb, "mu");
+    REQUIRE(mu);
     CHECK(report["geodesic"]["unreached"] == 0);
-    CHECK(report["geodesic"]["reached"] == report["band"]["voxels"]);
+    CHECK(report["geodesic"]["reached"].get<openvdb::Index64>() == mu->activeVoxelCount());
     CHECK(report["timings_s"].contains("solve"));
     REQUIRE(report["geodesic"]["paths"].size() == 2);
 
@@ -431,10 +784,33 @@ TEST_CASE("cli: geodesic writes 'geodesic' and a bunny path between far points t
         }
         CHECK(double(within) > 0.9 * double(points.size()));
     }
-    // U is 0 at the source voxel; every band voxel was reached, so every one is active
+    // U is 0 at the source voxel (the band voxel nearest the source point, found here); every band voxel was
+    // reached, so every one is active; the report's distances are U at the targets' nearest voxels and its max.
+    const auto [sIndex, sVoxel] = nearestActiveVoxel(*mu, {0.5, 6, 1});
     const auto& s = report["geodesic"]["sources"][0]["voxel"];
-    CHECK(geodesic->tree().getValue(openvdb::Coord(s[0].get<int>(), s[1].get<int>(), s[2].get<int>())) == 0);
-    CHECK(geodesic->activeVoxelCount() == report["band"]["voxels"].get<openvdb::Index64>());
+    CHECK(report["geodesic"]["sources"][0]["index"].get<std::size_t>() == sIndex);
+    CHECK(openvdb::Coord(s[0].get<int>(), s[1].get<int>(), s[2].get<int>()) == sVoxel);
+    CHECK(geodesic->tree().getValue(sVoxel) == 0);
+    CHECK(geodesic->activeVoxelCount() == mu->activeVoxelCount());
+    float lowest = 0, farthest = 0;
+    geodesic->evalMinMax(lowest, farthest);
+    CHECK(lowest == 0);
+    CHECK(report["geodesic"]["max_distance"].get<double>() == Approx(farthest).epsilon(1e-6));
+    const openvdb::Vec3d targets[2] = {{-2, 9, 0}, {3, 4, -2}};
+    for (int k = 0; k < 2; ++k) {
+        const auto& rp = report["geodesic"]["paths"][k];
+        const auto [tIndex, tVoxel] = nearestActiveVoxel(*mu, targets[k]);
+        CHECK(rp["target_index"].get<std::size_t>() == tIndex);
+        CHECK(rp["distance"].get<double>() == Approx(geodesic->tree().getValue(tVoxel)).epsilon(1e-6));
+        CHECK(rp["points"].get<std::size_t>() == p["paths"][k]["points"].size());
+        CHECK(rp["length"].get<double>() == Approx(p["paths"][k]["length"].get<double>()).epsilon(1e-9));
+        // the length is the sum of the written segments
+        double length = 0;
+        const auto& pts = p["paths"][k]["points"];
+        for (std::size_t i = 1; i < pts.size(); ++i)
+            length += (openvdb::Vec3d(pts[i][0], pts[i][1], pts[i][2]) - openvdb::Vec3d(pts[i - 1][0], pts[i - 1][1], pts[i - 1][2])).length();
+        CHECK(rp["length"].get<double>() == Approx(length).epsilon(1e-5));
+    }
 
     // === The same paths as OBJ and VTP
     REQUIRE(run(common + " -o " + vdb + " --paths " + obj).code == 0);
@@ -513,20 +889,23 @@ TEST_CASE("cli: render writes a picture that is not blank, with a slice panel be
     const SmallResult& s = smallResult();
     const std::string png = temp("render.png");
     fs::remove(png);
-    const Run r = run("render " + s.vdb + " --grid geodesic --paths " + s.paths + " --size 300,240 -o " + png + " --quiet");
+    const int width = 300, height = 240;  // --size, per panel
+    const std::string size = " --size " + std::to_string(width) + "," + std::to_string(height);
+    const Run r = run("render " + s.vdb + " --grid geodesic --paths " + s.paths + size + " -o " + png + " --quiet");
     INFO(r.err);
     REQUIRE(r.code == 0);
     gpisvdb::test::PngStats st = gpisvdb::test::pngStats(png);
     REQUIRE(st.readable);
-    CHECK(st.width == 300);
-    CHECK(st.height == 240);
+    CHECK(st.width == width);
+    CHECK(st.height == height);
     CHECK(st.colours > 100);
     CHECK(st.nonWhite > 0.1);
-    const Run sliced = run("render " + s.vdb + " --grid mu --log --colormap magma --slice z=0.5 --size 300,240 -o " + png + " --quiet");
+    const Run sliced = run("render " + s.vdb + " --grid mu --log --colormap magma --slice z=0.5" + size + " -o " + png + " --quiet");
     INFO(sliced.err);
     REQUIRE(sliced.code == 0);
     st = gpisvdb::test::pngStats(png);
-    CHECK(st.width == 600);
+    CHECK(st.width == 2 * width);  // surface and slice panels side by side
+    CHECK(st.height == height);
     CHECK(st.colours > 100);
 }
 

@@ -126,7 +126,8 @@ TEST_CASE("first order: G^T is the adjoint of G, and D_phi of G in the mu-weight
 }
 
 TEST_CASE("first order: T/mu is an average of projectors, G_phi of x tends to the tangential gradient as sigma falls", "[first_order]") {
-    // T/μ = E[‖X‖ Π_X⊥] / E‖X‖: eigenvalues in [0, 1], trace 2; near γ = u it tends to I − n nᵀ as σ → 0, so
+    // T/μ = E[‖X‖ Π_X⊥] / E‖X‖: eigenvalues in [0, 1] (after the anisotropy cap too); near γ = u it tends to
+    // I − n nᵀ as σ → 0, so
     // G_φ x₁ → e₁ − n₁ n (the ambient gradient e₁ would be off by |n₁|, up to 1).
     double previous = 1;
     for (auto [sigma, h] : {std::pair{1.0, 0.05}, std::pair{0.5, 0.03}}) {
@@ -144,7 +145,6 @@ TEST_CASE("first order: T/mu is an average of projectors, G_phi of x tends to th
             const Vec3d ev = Eigen::SelfAdjointEigenSolver<Mat3d>(P).eigenvalues();
             CHECK(ev.minCoeff() >= -1e-5);
             CHECK(ev.maxCoeff() <= 1 + 1e-5);
-            CHECK(P.trace() == Approx(2.0).epsilon(1e-4));  // tr T = 2 μ
             if (std::abs(band.mean[i] - 0.5f) > 0.05f) continue;
             ++near;
             const Vec3d n(band.normal[i].x(), band.normal[i].y(), band.normal[i].z());

@@ -101,7 +101,7 @@ TEST_CASE("geodesic: several sources give the least distance, a target at a sour
     CHECK(both.paths[0].reachedSource);
 }
 
-TEST_CASE("geodesic: an early stop still gives the target's path; bad points are refused", "[geodesic]") {
+TEST_CASE("geodesic: an early stop still gives the target's path, bad points are refused", "[geodesic]") {
     const Band& band = test::torusGapBand();
     const Vec3d s(1.0, 0.0, -0.2), t(-1.0, 0.0, -0.2);
     GeodesicOptions early;

@@ -24,7 +24,7 @@ TEST_CASE("green: symmetric G(x,y) = G(y,x), positive, largest at its source", "
     }
 }
 
-TEST_CASE("green: the source snaps to the nearest band voxel; a non-finite source is refused", "[green]") {
+TEST_CASE("green: the source snaps to the nearest band voxel, a non-finite source is refused", "[green]") {
     const Band& band = test::torusGapBand();
     const std::size_t i = band.size() / 2;
     const Vec3d x = band.voxelSize * Vec3d(band.coord[i].x(), band.coord[i].y(), band.coord[i].z());

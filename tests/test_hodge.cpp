@@ -1,4 +1,7 @@
 #include <catch2/catch.hpp>
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
 #include <tbb/global_control.h>
 
 #include "band_fixtures.h"
@@ -14,58 +17,186 @@ namespace {
 
 double sNorm(const Band& band, const std::vector<float>& v) { return std::sqrt(sInnerProduct(band, v, v)); }
 
-/// A smooth function on the band that vanishes towards its boundary (so that G ψ has no Dirichlet jump).
-std::vector<float> smoothPotential(const Band& band) {
-    std::vector<float> f(band.size());
+// The helpers below restate the discrete definitions of docs/hodge.md and engine/ops/first_order.h from the band's
+// own data (coordinates, index tree, μ, T), without the library's operators, so that the checks built on them are
+// not the library checking itself.
+
+Mat3d tensorAt(const Band& band, std::size_t i) {
+    const auto& t = band.T[i];
+    Mat3d T;
+    T << t[0], t[3], t[4], t[3], t[1], t[5], t[4], t[5], t[2];
+    return T;
+}
+
+/// The band voxel at coord[i] + e_c, or −1.
+int upNeighbour(const Band& band, std::size_t i, int c) {
+    openvdb::Coord y = band.coord[i];
+    y[c] += 1;
+    return band.index->getConstAccessor().getValue(y);
+}
+
+/// M D_φ V = Gᵀ (M ⊗ I) V as a flux balance over the faces of the voxel grid: across the face from voxel i to
+/// i + h e_c flows h³ μ_i V_{i,c} / h. Neumann: only faces between two band voxels carry flux (none leaves the band);
+/// Dirichlet: faces leaving the band carry their outflow too. Returns inflow − outflow per voxel, in double.
+std::vector<double> muFluxBalance(const Band& band, const std::vector<float>& V, Boundary bc) {
+    const double h2 = band.voxelSize * band.voxelSize;
+    std::vector<double> net(band.size(), 0.0);
+    for (std::size_t i = 0; i < band.size(); ++i)
+        for (int c = 0; c < 3; ++c) {
+            const int j = upNeighbour(band, i, c);
+            if (j < 0 && bc == Boundary::Neumann) continue;
+            const double flux = h2 * double(band.mu[i]) * double(V[3 * i + std::size_t(c)]);
+            net[i] -= flux;
+            if (j >= 0) net[std::size_t(j)] += flux;
+        }
+    return net;
+}
+
+double norm(const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x * x;
+    return std::sqrt(s);
+}
+
+/// ⟨a, b⟩_S = Σ h³ μ_i² a_iᵀ T_i⁻¹ b_i (App. E), T_i⁻¹ b_i by a 3 × 3 LDLᵀ solve in double.
+double sDot(const Band& band, const std::vector<float>& a, const std::vector<float>& b) {
+    const double h3 = std::pow(band.voxelSize, 3);
+    double s = 0;
     for (std::size_t i = 0; i < band.size(); ++i) {
-        const openvdb::Coord& k = band.coord[i];
-        const double x = band.voxelSize * k.x(), z = band.voxelSize * k.z();
-        f[i] = float((x + 0.5 * z * z) * band.mu[i] / (band.mu[i] + 1.0));
+        const Vec3d ai(a[3 * i], a[3 * i + 1], a[3 * i + 2]), bi(b[3 * i], b[3 * i + 1], b[3 * i + 2]);
+        s += h3 * double(band.mu[i]) * double(band.mu[i]) * ai.dot(tensorAt(band, i).ldlt().solve(bi));
     }
-    return f;
+    return s;
+}
+
+/// A known potential, quadratic in the world position and not vanishing at the band's boundary.
+double knownPotential(const Vec3d& x) { return x.x() - 0.5 * x.y() + 0.5 * x.z() * x.z() + 0.3 * x.x() * x.y(); }
+
+/// G_φ φ = (T/μ) G φ written out: forward differences of φ along the axes; across a face leaving the band
+/// Dirichlet takes φ = 0 outside and Neumann drops the difference.
+std::vector<float> gpisGradientOf(const Band& band, const std::vector<double>& phi, Boundary bc) {
+    const double h = band.voxelSize;
+    std::vector<float> V(3 * band.size());
+    for (std::size_t i = 0; i < band.size(); ++i) {
+        Vec3d g;
+        for (int c = 0; c < 3; ++c) {
+            const int j = upNeighbour(band, i, c);
+            g[c] = j >= 0 ? (phi[std::size_t(j)] - phi[i]) / h : bc == Boundary::Dirichlet ? -phi[i] / h : 0.0;
+        }
+        const Vec3d v = tensorAt(band, i) * g / double(band.mu[i]);
+        for (int c = 0; c < 3; ++c) V[3 * i + std::size_t(c)] = float(v[c]);
+    }
+    return V;
+}
+
+/// Face-connected components of the band (breadth-first): with Neumann boundaries ψ is determined up to a constant
+/// on each.
+std::vector<int> faceComponentsOf(const Band& band) {
+    std::vector<int> label(band.size(), -1);
+    auto acc = band.index->getConstAccessor();
+    int count = 0;
+    for (std::size_t s = 0; s < band.size(); ++s) {
+        if (label[s] >= 0) continue;
+        std::vector<std::size_t> queue{s};
+        label[s] = count;
+        while (!queue.empty()) {
+            const std::size_t i = queue.back();
+            queue.pop_back();
+            for (int c = 0; c < 3; ++c)
+                for (int d : {-1, 1}) {
+                    openvdb::Coord y = band.coord[i];
+                    y[c] += d;
+                    const int j = acc.getValue(y);
+                    if (j < 0 || label[std::size_t(j)] >= 0) continue;
+                    label[std::size_t(j)] = count;
+                    queue.push_back(std::size_t(j));
+                }
+        }
+        ++count;
+    }
+    return label;
 }
 
 }  // namespace
 
-TEST_CASE("hodge: the parts sum to the field, the free part is mu-divergence-free and S-orthogonal") {
+TEST_CASE("hodge: the free part of a random field carries no net mu-flux and is S-orthogonal to the gradient part", "[hodge]") {
     const Band& band = test::sphereBand();
     const std::vector<float> V = randomField(3 * band.size(), 7);
     HodgeOptions o;
+    o.boundary = GENERATE(Boundary::Neumann, Boundary::Dirichlet);
     o.solver.tolerance = 1e-6;
     const HodgeResult r = hodgeDecomposition(band, V, o);
     REQUIRE(r.solver.converged);
-    for (std::size_t k = 0; k < V.size(); ++k) CHECK(r.gradient[k] + r.free[k] == Approx(V[k]).margin(1e-6));
-    // M D_φ V_free is the solve's residual, up to float rounding of the parts.
-    CHECK(r.divergenceResidual <= 10 * o.solver.tolerance);
-    CHECK(std::abs(r.sInnerProduct) < 1e-4);
-    CHECK(std::abs(r.sInnerProduct) == Approx(std::abs(sInnerProduct(band, r.gradient, r.free)) /
-                                              (sNorm(band, r.gradient) * sNorm(band, r.free))).epsilon(1e-9));
-    // Not orthogonal in the Euclidean inner product: the S weighting is what makes the projection orthogonal.
+    // (a) D_φ V_free = 0: the μ-flux balance of every voxel, summed over its faces here, is at the solver's
+    // tolerance relative to V's (the solve's residual is M D_φ V_free; float storage of the parts adds ~1e-7).
+    const double divV = norm(muFluxBalance(band, V, o.boundary));
+    const double divFree = norm(muFluxBalance(band, r.free, o.boundary)) / divV;
+    // (c) ⟨V_grad, V_free⟩_S as the direct sum of App. E.
+    const double gg = sDot(band, r.gradient, r.gradient), ff = sDot(band, r.free, r.free);
+    const double cosS = sDot(band, r.gradient, r.free) / std::sqrt(gg * ff);
     const double euclid = dot(r.gradient, r.free) / std::sqrt(dot(r.gradient, r.gradient) * dot(r.free, r.free));
-    CHECK(std::abs(euclid) > 100 * std::abs(r.sInnerProduct));
+    INFO((o.boundary == Boundary::Neumann ? "Neumann" : "Dirichlet") << ": |M D_phi V_free| / |M D_phi V| " << divFree
+         << ", S-cosine " << cosS << ", Euclidean cosine " << euclid << ", " << r.solver.iterations << " iterations");
+    CHECK(divFree <= 10 * o.solver.tolerance);  // measured 7e-7
+    // A split off by ε V_grad has an S-cosine ≈ ε |V_grad|_S / |V_free|_S ≈ 0.6 ε: 1e-6 catches any error of the
+    // gradient part beyond the solver's tolerance (measured 1e-9).
+    CHECK(std::abs(cosS) < 1e-6);
+    // The report's figures are these.
+    CHECK(r.divergenceResidual == Approx(divFree).epsilon(1e-3));
+    CHECK(r.sInnerProduct == Approx(cosS).margin(1e-3 * std::abs(cosS) + 1e-12));
+    // Both parts are substantial, so the orthogonality is not that of a vanishing part.
+    CHECK(gg > 0.05 * (gg + ff));
+    CHECK(ff > 0.05 * (gg + ff));
+    // Not orthogonal in the Euclidean inner product: the S weighting is what makes the projection orthogonal.
+    CHECK(std::abs(euclid) > 100 * std::abs(cosS));
 }
 
-TEST_CASE("hodge: a discrete GPIS gradient has no free part") {
+TEST_CASE("hodge: the S-inner product is the direct sum of App. E", "[hodge]") {
     const Band& band = test::sphereBand();
-    const std::vector<float> psi = smoothPotential(band);
-    HodgeOptions o;
-    o.boundary = GENERATE(Boundary::Neumann, Boundary::Dirichlet);
-    o.solver.tolerance = 1e-8;
-    std::vector<float> V;
-    gradPhi(band, psi, V, o.boundary);
-    const HodgeResult r = hodgeDecomposition(band, V, o);
-    CHECK(sNorm(band, r.free) < 1e-3 * sNorm(band, V));
-    if (o.boundary == Boundary::Dirichlet) {  // K is definite: the potential itself is recovered
-        double err = 0, ref = 0;
-        for (std::size_t i = 0; i < band.size(); ++i) {
-            err = std::max(err, double(std::abs(r.potential[i] - psi[i])));
-            ref = std::max(ref, double(std::abs(psi[i])));
-        }
-        CHECK(err < 1e-3 * ref);
-    }
+    const std::vector<float> a = randomField(3 * band.size(), 11), b = randomField(3 * band.size(), 12);
+    CHECK(sInnerProduct(band, a, b) == Approx(sDot(band, a, b)).epsilon(1e-9));
+    CHECK(sInnerProduct(band, a, a) == Approx(sDot(band, a, a)).epsilon(1e-9));
 }
 
-TEST_CASE("hodge: the rotation's gradient part and the height gradient's free part shrink with h") {
+TEST_CASE("hodge: the GPIS gradient of a known potential is recovered with its potential and no free part", "[hodge]") {
+    const Band& band = test::sphereBand();
+    HodgeOptions o;
+    o.boundary = GENERATE(Boundary::Neumann, Boundary::Dirichlet);  // the default tolerance 1e-5 (float's floor: ~5e-6)
+    std::vector<double> phi(band.size());
+    for (std::size_t i = 0; i < band.size(); ++i) {
+        const openvdb::Coord& k = band.coord[i];
+        phi[i] = knownPotential(band.voxelSize * Vec3d(k.x(), k.y(), k.z()));
+    }
+    const std::vector<float> V = gpisGradientOf(band, phi, o.boundary);
+    const HodgeResult r = hodgeDecomposition(band, V, o);
+    REQUIRE(r.solver.converged);
+    // ψ = φ; with Neumann boundaries only up to a constant on each face-connected component (K's kernel).
+    const std::vector<int> label = faceComponentsOf(band);
+    const int count = *std::max_element(label.begin(), label.end()) + 1;
+    std::vector<double> offset(std::size_t(count), 0.0), mass(std::size_t(count), 0.0);
+    if (o.boundary == Boundary::Neumann)
+        for (std::size_t i = 0; i < band.size(); ++i) {
+            offset[std::size_t(label[i])] += band.mu[i] * (r.potential[i] - phi[i]);
+            mass[std::size_t(label[i])] += band.mu[i];
+        }
+    for (int c = 0; c < count; ++c)
+        if (mass[std::size_t(c)] > 0) offset[std::size_t(c)] /= mass[std::size_t(c)];
+    double err = 0, lo = 1e300, hi = -1e300;
+    for (std::size_t i = 0; i < band.size(); ++i) {
+        const double e = r.potential[i] - phi[i] - offset[std::size_t(label[i])];
+        err = std::max(err, std::abs(e));
+        lo = std::min(lo, phi[i]), hi = std::max(hi, phi[i]);
+    }
+    const double range = hi - lo;
+    const double freeRel = std::sqrt(sDot(band, r.free, r.free) / sDot(band, V, V));
+    INFO((o.boundary == Boundary::Neumann ? "Neumann" : "Dirichlet") << ": max |psi - phi - c| / range(phi) "
+         << err / range << ", |V_free|_S / |V|_S " << freeRel << ", " << r.solver.iterations << " iterations");
+    // At the solver's tolerance 1e-5, ten times over (measured 1.4e-6 and 2.8e-6).
+    CHECK(err < 1e-4 * range);
+    CHECK(freeRel < 1e-4);
+}
+
+TEST_CASE("hodge: the rotation's gradient part and the height gradient's free part shrink with h", "[hodge]") {
     double rot[2], grad[2];
     const double hs[2] = {0.08, 0.04};
     for (int k = 0; k < 2; ++k) {
@@ -79,7 +210,7 @@ TEST_CASE("hodge: the rotation's gradient part and the height gradient's free pa
     CHECK(grad[1] < 0.7 * grad[0]);
 }
 
-TEST_CASE("hodge: with Neumann boundaries the height gradient stays a gradient, with Dirichlet it does not") {
+TEST_CASE("hodge: with Neumann boundaries the height gradient stays a gradient, with Dirichlet it does not", "[hodge]") {
     // ψ = z does not vanish at the band's boundary: Dirichlet must bend it to 0 across the thin band.
     const Band& band = test::sphereBand();
     const std::vector<float> H = hodgePreset(band, HodgePreset::Gradient), R = hodgePreset(band, HodgePreset::Rotation);
@@ -98,7 +229,7 @@ TEST_CASE("hodge: with Neumann boundaries the height gradient stays a gradient, 
         CHECK(mixed.gradient[k] == Approx(rot.gradient[k] + n.gradient[k]).margin(1e-4 * scale));
 }
 
-TEST_CASE("hodge: results do not depend on the thread count") {
+TEST_CASE("hodge: results do not depend on the thread count", "[hodge]") {
     const Band& band = test::sphereBand();
     const std::vector<float> V = hodgePreset(band, HodgePreset::Mixed);
     HodgeResult one, two;
@@ -114,7 +245,7 @@ TEST_CASE("hodge: results do not depend on the thread count") {
     CHECK(one.solver.iterations == two.solver.iterations);
 }
 
-TEST_CASE("hodge: a field of the wrong length or with NaN is refused") {
+TEST_CASE("hodge: a field of the wrong length or with NaN is refused", "[hodge]") {
     const Band& band = test::sphereBand();
     CHECK_THROWS_AS(hodgeDecomposition(band, std::vector<float>(band.size())), Error);
     std::vector<float> V(3 * band.size(), 1.0f);
@@ -122,7 +253,7 @@ TEST_CASE("hodge: a field of the wrong length or with NaN is refused") {
     CHECK_THROWS_AS(hodgeDecomposition(band, V), InputError);
 }
 
-TEST_CASE("hodge: a zero field splits into zeros") {
+TEST_CASE("hodge: a zero field splits into zeros", "[hodge]") {
     const Band& band = test::sphereBand();
     const HodgeResult r = hodgeDecomposition(band, std::vector<float>(3 * band.size(), 0.0f));
     CHECK(r.solver.converged);

@@ -91,7 +91,7 @@ TEST_CASE("matern: the kernel matrix is symmetric positive semi-definite for eve
     }
 }
 
-TEST_CASE("matern: rho_nu tends to rho_infinity as nu grows; smaller nu weighs high frequencies more", "[matern]") {
+TEST_CASE("matern: rho_nu tends to rho_infinity as nu grows, smaller nu weighs high frequencies more", "[matern]") {
     const EigenResult& eig = sphereSpectrum();
     MaternOptions o;
     o.kappa = 0.4;
@@ -190,7 +190,7 @@ TEST_CASE("matern: at equal distance from the data the variance is larger where 
     CHECK(r.variance[hole] > 1.2 * r.variance[solid]);
 }
 
-TEST_CASE("matern: weight-space and function-space posteriors agree; the result is thread-count independent", "[matern]") {
+TEST_CASE("matern: weight-space and function-space posteriors agree, the result is thread-count independent", "[matern]") {
     const Band& band = test::sphereBand();
     const EigenResult& eig = sphereSpectrum();
     PointData data = dataAlong(band, equator(16), heightOf);

@@ -1,5 +1,6 @@
 #include <catch2/catch.hpp>
 #include <Eigen/SparseCholesky>
+#include <algorithm>
 #include <cmath>
 #include <tbb/global_control.h>
 
@@ -15,6 +16,19 @@ namespace {
 
 Eigen::VectorXd asDouble(const std::vector<float>& v) {
     return Eigen::Map<const Eigen::VectorXf>(v.data(), long(v.size())).cast<double>();
+}
+
+/// L⁻¹ b by a sparse LDLᵀ of L assembled in double (the operator the matrix-free L applies), factorised once per
+/// band (≈ 3 s on the torus band) and shared by the test cases that compare against it.
+Eigen::VectorXd directSolve(const Band& band, const std::vector<float>& b) {
+    static const Band* factored = nullptr;
+    static Eigen::SimplicialLDLT<SparseMatrixD> ldlt;
+    if (factored != &band) {
+        ldlt.compute(assembleLaplacianDouble(band));
+        REQUIRE(ldlt.info() == Eigen::Success);
+        factored = &band;
+    }
+    return ldlt.solve(asDouble(b));
 }
 
 /// ‖b − L x‖ / ‖b‖ with L straight from the stencils (paper Eq. 24), all in double: the operator the matrix-free
@@ -50,8 +64,11 @@ TEST_CASE("pcg: reaches the tolerance and agrees with a sparse Cholesky solve, m
     b[band.size() / 3] = float(band.mu[band.size() / 3]);
     const Eigen::SparseMatrix<double> Ad = A.cast<double>();
     const Eigen::VectorXd bd = asDouble(b);
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(Ad);
-    const Eigen::VectorXd exact = ldlt.solve(bd);
+    const Eigen::VectorXd exact = directSolve(band, b);
+    // L is an M-matrix (positive stencil weights, rows leaving the band strictly dominant) and the torus band is
+    // connected, so L⁻¹ > 0 entrywise: this Green's function is positive everywhere (its minimum is 1.4e-3 of its
+    // maximum here).
+    REQUIRE(exact.minCoeff() > 1e-4 * exact.maxCoeff());
     const AssembledOperator assembled(A);
     for (const SymmetricOperator* op : {static_cast<const SymmetricOperator*>(&L), static_cast<const SymmetricOperator*>(&assembled)}) {
         std::vector<float> x;
@@ -62,7 +79,11 @@ TEST_CASE("pcg: reaches the tolerance and agrees with a sparse Cholesky solve, m
         // The true residual, recomputed in double, is at the tolerance too (float storage costs ~1e-7).
         const Eigen::VectorXd xd = asDouble(x);
         CHECK((bd - Ad * xd).norm() <= 1e-5 * bd.norm());
-        CHECK((xd - exact).norm() <= 1e-4 * exact.norm());
+        // Against the direct solve: the residual's tolerance 1e-6, times twenty (measured 1.0e-6 matrix-free,
+        // 1.2e-6 assembled).
+        CHECK((xd - exact).norm() <= 2e-5 * exact.norm());
+        // Positive at every voxel, like L⁻¹ (a PCG stopped early leaves zeros far from the source).
+        CHECK(xd.minCoeff() > 0);
     }
 }
 
@@ -79,9 +100,15 @@ TEST_CASE("pcg: incomplete Cholesky reaches the same solution in fewer iteration
     REQUIRE(rj.converged);
     REQUIRE(ri.converged);
     CHECK(ri.iterations < rj.iterations);
-    double diff = 0, norm = 0;
-    for (std::size_t i = 0; i < xj.size(); ++i) diff += double(xj[i] - xi[i]) * (xj[i] - xi[i]), norm += double(xj[i]) * xj[i];
-    CHECK(std::sqrt(diff) <= 1e-4 * std::sqrt(norm));
+    // Both against the direct solve, to the residual's tolerance 1e-6 times twenty (measured 1.3e-6 Jacobi,
+    // 2.1e-6 IC), and positive at every voxel like L⁻¹ (see the first test case).
+    const Eigen::VectorXd exact = directSolve(band, b);
+    for (const std::vector<float>* x : {&xj, &xi}) {
+        INFO((x == &xj ? "Jacobi" : "incomplete Cholesky"));
+        const Eigen::VectorXd xd = asDouble(*x);
+        CHECK((xd - exact).norm() <= 2e-5 * exact.norm());
+        CHECK(xd.minCoeff() > 0);
+    }
 }
 
 TEST_CASE("pcg: a solve allocates nothing of size N beyond the solver's work vectors", "[pcg]") {
@@ -145,10 +172,13 @@ TEST_CASE("pcg: reports an unconverged solve at the iteration cap", "[pcg]") {
     const PcgResult r = solvePcg(LaplacianOperator(band), b, x, {1e-6, 5});
     CHECK(!r.converged);
     CHECK(r.iterations == 5);
-    CHECK(r.relativeResidual > 1e-6);
+    // The reported residual is the true one, recomputed from the stencils: far from the tolerance after 5 iterations.
+    const double truth = stencilResidual(band, x, b);
+    CHECK(r.relativeResidual == Approx(truth).epsilon(0.05));
+    CHECK(truth > 1e-2);
 }
 
-TEST_CASE("pcg: the reported residual is the true one; below float's reach the solve says it did not converge", "[pcg]") {
+TEST_CASE("pcg: the reported residual is the true one, below float's reach the solve says it did not converge", "[pcg]") {
     // The recursively updated residual drifts below the true one in float storage; restarts from the true one
     // recover the tolerance where float can reach it (measured floor ≈ 4e-7 on this band).
     const Band& band = test::torusGapBand();
@@ -166,13 +196,13 @@ TEST_CASE("pcg: the reported residual is the true one; below float's reach the s
     }
 }
 
-TEST_CASE("pcg: a zero right-hand side gives zero; bad options and inputs are refused", "[pcg]") {
+TEST_CASE("pcg: a zero right-hand side gives zero, bad options and inputs are refused", "[pcg]") {
     const Band& band = test::torusGapBand();
     const LaplacianOperator L(band);
     std::vector<float> x(band.size(), 1.0f);
     const PcgResult r = solvePcg(L, std::vector<float>(band.size(), 0.0f), x);
     CHECK(r.converged);
-    CHECK(*std::max_element(x.begin(), x.end()) == 0.0f);
+    CHECK(std::all_of(x.begin(), x.end(), [](float v) { return v == 0.0f; }));  // every entry, not only the largest
     const std::vector<float> ones(band.size(), 1.0f);
     CHECK_THROWS_AS(solvePcg(L, ones, x, {0.0, 10}), ParameterError);
     CHECK_THROWS_AS(solvePcg(L, ones, x, {-1.0, 10}), ParameterError);

@@ -56,7 +56,7 @@ std::vector<Vec3d> directions(std::size_t n, std::uint64_t seed) {
 
 }  // namespace
 
-TEST_CASE("regression gpis: from a few hundred labels the mean crosses 0 at the sphere, +1 inside, -1 outside") {
+TEST_CASE("regression gpis: from a few hundred labels the mean crosses 0 at the sphere, +1 inside, -1 outside", "[regression_gpis]") {
     const SphereModel s = sphereModel(200);
     REQUIRE(s.model->trainingSize() == 600);
     CHECK(s.model->naturalIso() == 0.0);
@@ -81,7 +81,7 @@ TEST_CASE("regression gpis: from a few hundred labels the mean crosses 0 at the 
     CHECK(band.mass() == Approx(4 * M_PI).epsilon(0.1));
 }
 
-TEST_CASE("regression gpis: the covariance is PSD and shrinks at the labels; exact labels are interpolated") {
+TEST_CASE("regression gpis: the covariance is PSD and shrinks at the labels, exact labels are interpolated", "[regression_gpis]") {
     const SphereModel s = sphereModel(60, 1e-4);
     const Samples& in = s.samples;
     for (const Vec3d& u : directions(50, 2)) {
@@ -98,7 +98,7 @@ TEST_CASE("regression gpis: the covariance is PSD and shrinks at the labels; exa
     }
 }
 
-TEST_CASE("regression gpis: batched evaluation equals single points for any thread count") {
+TEST_CASE("regression gpis: batched evaluation equals single points for any thread count", "[regression_gpis]") {
     const SphereModel s = sphereModel(100);
     std::vector<Vec3d> xs;
     for (const Vec3d& u : directions(77, 3)) xs.push_back(1.05 * u);
@@ -120,7 +120,7 @@ TEST_CASE("regression gpis: batched evaluation equals single points for any thre
     }
 }
 
-TEST_CASE("regression gpis: Green, geodesic and spectrum run on it unchanged") {
+TEST_CASE("regression gpis: Green, geodesic and spectrum run on it unchanged", "[regression_gpis]") {
     const SphereModel s = sphereModel(150);
     const Band band = regressionBand(s, 0.06);
     REQUIRE(band.size() > 1000);
@@ -141,7 +141,7 @@ TEST_CASE("regression gpis: Green, geodesic and spectrum run on it unchanged") {
     CHECK(e.values[1] - e.values[0] == Approx(2.0).epsilon(0.4));
 }
 
-TEST_CASE("regression gpis: the pole-to-pole geodesic converges as the labels grow (paper Fig. 13)") {
+TEST_CASE("regression gpis: the pole-to-pole geodesic converges as the labels grow (paper Fig. 13)", "[regression_gpis]") {
     std::vector<double> length, distance;
     for (std::size_t n : {40, 80, 160, 320}) {
         const SphereModel s = sphereModel(n);
@@ -158,7 +158,7 @@ TEST_CASE("regression gpis: the pole-to-pole geodesic converges as the labels gr
     CHECK(std::abs(length[3] - M_PI) < 0.05 * M_PI);
 }
 
-TEST_CASE("regression gpis: bad labels and options are refused") {
+TEST_CASE("regression gpis: bad labels and options are refused", "[regression_gpis]") {
     LabelledPoints t;
     RegressionGpisOptions o;
     o.smoothing = 0.1;
@@ -180,11 +180,11 @@ TEST_CASE("regression gpis: bad labels and options are refused") {
     t.position = {Vec3d(0, 0, 0), Vec3d(0, 0, 0)};
     bad = o;
     bad.labelNoise = 0;
-    CHECK_THROWS_WITH(RegressionGpis(t, bad), Catch::Contains("--label-noise"));
+    CHECK_THROWS_WITH(RegressionGpis(t, bad), Catch::Contains("raise the label noise (RegressionGpisOptions::labelNoise)"));
     CHECK_THROWS_AS(trainingFromSamples(Samples{}), InputError);
 }
 
-TEST_CASE("regression gpis: labelled points are read from x,y,z,label[,noise] files") {
+TEST_CASE("regression gpis: labelled points are read from x,y,z,label[,noise] files", "[regression_gpis]") {
     const std::string path = (test::scratchDir() / "labels.csv").string();
     std::ofstream(path) << "x,y,z,label\n0,0,0,1\n1,0,0,0\n2,0,0,-1\n";
     const LabelledPoints t = readLabelledPoints(path);

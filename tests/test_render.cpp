@@ -57,8 +57,8 @@ TEST_CASE("render: a surface picture has the requested size and is neither blank
     renderPng({p}, o, path);
     const test::PngStats s = test::pngStats(path);
     REQUIRE(s.readable);
-    CHECK(s.width == 320);
-    CHECK(s.height == 240);
+    CHECK(s.width == o.panelWidth);
+    CHECK(s.height == o.panelHeight);
     CHECK(s.colours > 200);
     CHECK(s.nonWhite > 0.15);
     CHECK(s.nonWhite < 0.9);
@@ -101,13 +101,24 @@ TEST_CASE("render: panels tile the picture, and a slice leaves inactive voxels w
     renderPng({surface, slice, surface}, o, path);
     const test::PngStats s = test::pngStats(path);
     REQUIRE(s.readable);
-    CHECK(s.width == 200);
-    CHECK(s.height == 3 * 160 + 26);
-    // The slice panel alone: its corners (outside the ball) are white, its centre is coloured.
+    // One column of three panels above one caption strip, the strip as tall as under a single captioned panel.
+    const std::string captioned = png("captioned.png");
+    renderPng({slice}, o, captioned);
+    const test::PngStats c = test::pngStats(captioned);
+    REQUIRE(c.readable);
+    const int strip = c.height - o.panelHeight;
+    CHECK(strip > 0);
+    CHECK(strip < o.panelHeight / 2);
+    CHECK(c.width == o.panelWidth);
+    CHECK(s.width == o.panelWidth);
+    CHECK(s.height == 3 * o.panelHeight + strip);
+    // The slice panel alone: no caption, no strip; its corners (outside the ball) are white, its centre is coloured.
     RenderOptions one;
     one.panelWidth = one.panelHeight = 200;
     const std::string slicePath = png("slice.png");
     renderPng({slice}, one, slicePath);
+    CHECK(test::pngStats(slicePath).width == one.panelWidth);
+    CHECK(test::pngStats(slicePath).height == one.panelHeight);
     CHECK(test::redMinusBlue(slicePath, 0, 8, 192, 200) == 0);  // only background there
     CHECK(test::pngStats(slicePath).colours > 20);
 }

@@ -32,7 +32,7 @@ double meanRadius(const Band& band) {
 
 }  // namespace
 
-TEST_CASE("smoothed distance: the tree equals the exact sum within the stated bound") {
+TEST_CASE("smoothed distance: the tree equals the exact sum within the stated bound", "[smoothed_distance]") {
     const Band& band = test::sphereBand();
     const std::vector<Vec3d> xs = randomPoints(300, 3.0, 11);
     for (double alpha : {0.3, 3.0, 30.0, 300.0}) {
@@ -54,7 +54,7 @@ TEST_CASE("smoothed distance: the tree equals the exact sum within the stated bo
     }
 }
 
-TEST_CASE("smoothed distance: finite on the whole grid for extreme alpha, and below the distance to the band") {
+TEST_CASE("smoothed distance: finite on the whole grid for extreme alpha, and below the distance to the band", "[smoothed_distance]") {
     const Band& band = test::sphereBand();
     for (double alpha : {1e-4, 1.0, 1e4}) {
         SmoothedDistanceOptions o;
@@ -80,7 +80,7 @@ TEST_CASE("smoothed distance: finite on the whole grid for extreme alpha, and be
     }
 }
 
-TEST_CASE("smoothed distance: tends to the distance to the mean surface as alpha grows, at low sigma") {
+TEST_CASE("smoothed distance: tends to the distance to the mean surface as alpha grows, at low sigma", "[smoothed_distance]") {
     const Band band = test::bandOf(icosphere(3), 0.1, 0.03);
     const double R = meanRadius(band);
     std::vector<Vec3d> xs;
@@ -102,7 +102,7 @@ TEST_CASE("smoothed distance: tends to the distance to the mean surface as alpha
     CHECK(previous < 0.05);
 }
 
-TEST_CASE("smoothed distance: the grid does not depend on the thread count, and brute force agrees") {
+TEST_CASE("smoothed distance: the grid does not depend on the thread count, and brute force agrees", "[smoothed_distance]") {
     const Band& band = test::sphereBand();
     SmoothedDistanceOptions o;
     o.alpha = 5;
@@ -126,14 +126,14 @@ TEST_CASE("smoothed distance: the grid does not depend on the thread count, and 
     }
 }
 
-TEST_CASE("smoothed distance: bad alpha, grid sizes and empty bands are refused") {
+TEST_CASE("smoothed distance: bad alpha, grid sizes and empty bands are refused", "[smoothed_distance]") {
     const Band& band = test::sphereBand();
     CHECK_THROWS_AS(SmoothedDistance(band, 0.0), ParameterError);
     CHECK_THROWS_AS(SmoothedDistance(band, std::nan("")), ParameterError);
     SmoothedDistanceOptions o;
     o.alpha = 1;
     o.gridVoxelSize = 1e-6;  // (3 / 1e-6)³ ≈ 3e19 points
-    CHECK_THROWS_WITH(smoothedDistanceGrid(band, o), Catch::Contains("--grid-voxel-size"));
+    CHECK_THROWS_WITH(smoothedDistanceGrid(band, o), Catch::Contains("grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of"));
     o.gridVoxelSize = -1;
     CHECK_THROWS_AS(smoothedDistanceGrid(band, o), ParameterError);
     CHECK_THROWS_AS(SmoothedDistance(Band{}, 1.0), Error);

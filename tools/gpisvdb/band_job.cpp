@@ -54,6 +54,8 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
     cmd.add_option("--max-memory", f.maxMemory, "refuse bands needing more memory than this (default: half the RAM)");
     cmd.add_option("--report", f.report, "write a JSON report (parameters, band, timings, memory)");
     cmd.add_flag("--half", f.vdb.halfFloat, "store the .vdb grids as 16-bit floats (half the file, about 3 significant digits)");
+    cmd.add_flag("--stencils", f.vdb.sellingStencils,
+                 "also write the Selling stencils (selling_weight_0..5, selling_offset_0..5), from which L can be rebuilt");
 }
 
 BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress) {

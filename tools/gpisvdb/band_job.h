@@ -1,6 +1,6 @@
 #pragma once
 // What every band-based command shares: its flags, building the band from an input, the .vdb metadata and the
-// JSON report (DESIGN §5).
+// JSON report (docs/band.md, "The .vdb file" and "Report").
 #include <CLI/CLI.hpp>
 #include <limits>
 #include <nlohmann/json.hpp>

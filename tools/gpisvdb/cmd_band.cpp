@@ -1,4 +1,4 @@
-// gpisvdb band INPUT -o OUT.vdb: the narrow band with μ, T and the Selling stencils, as an OpenVDB file.
+// gpisvdb band INPUT -o OUT.vdb: the narrow band with μ and T (and, with --stencils, the Selling stencils) as an OpenVDB file.
 #include <chrono>
 #include <iostream>
 
@@ -9,7 +9,7 @@
 namespace gpisvdb::cli {
 
 void addBand(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("band", "narrow band of the GPIS with mu, T and Selling stencils, as a .vdb");
+    auto* cmd = app.add_subcommand("band", "narrow band of the GPIS with mu, T and stencil widths (with --stencils the Selling stencils), as a .vdb");
     struct Args {
         std::string input, output;
         BandFlags flags;
@@ -18,7 +18,8 @@ void addBand(CLI::App& app, Action& action) {
     cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
     cmd->add_option("-o,--output", a->output, "output .vdb")->required();
     addBandFlags(*cmd, a->flags);
-    cmd->footer("Writes grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width (voxel centres at h*k).\n"
+    cmd->footer("Writes grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width (voxel centres at h*k);\n"
+                "with --stencils also selling_weight_0..5 and selling_offset_0..5 (L can be rebuilt from them).\n"
                 "Example:\n  gpisvdb band bunny.obj -o bunny.vdb --sigma 1 --report bunny.json");
     cmd->callback([&action, a] {
         action = [a] {

@@ -19,7 +19,8 @@ namespace {
 std::vector<Vec3d> points(const std::vector<std::vector<double>>& flags, const char* name) {
     std::vector<Vec3d> p;
     for (const auto& v : flags) {
-        if (v.size() != 3) throw ParameterError(std::string(name) + " needs X,Y,Z");
+        if (v.size() != 3 || !Vec3d(v[0], v[1], v[2]).allFinite())
+            throw ParameterError(std::string(name) + " needs three finite numbers X,Y,Z");
         p.emplace_back(v[0], v[1], v[2]);
     }
     return p;

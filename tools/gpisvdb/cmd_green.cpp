@@ -38,7 +38,8 @@ void addGreen(CLI::App& app, Action& action) {
             using Clock = std::chrono::steady_clock;
             const auto start = Clock::now();
             const auto threads = limitThreads(a->flags.model.threads);
-            if (a->source.size() != 3) throw ParameterError("--source needs X,Y,Z");
+            if (a->source.size() != 3 || !Vec3d(a->source[0], a->source[1], a->source[2]).allFinite())
+                throw ParameterError("--source needs three finite numbers X,Y,Z");
             if (!(a->solver.tolerance > 0)) throw ParameterError("--tolerance must be > 0");
             if (a->solver.maxIterations < 1) throw ParameterError("--max-iterations must be >= 1");
             BandCommand run = startBandCommand(a->input, a->output, a->flags);

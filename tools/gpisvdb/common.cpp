@@ -2,11 +2,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <tbb/global_control.h>
 
@@ -52,6 +54,59 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
     }
     app.add_option("--threads", f.threads, "worker threads (0 = all cores)")->capture_default_str();
     app.add_flag("--quiet", f.quiet, "no progress bar");
+}
+
+std::string errorMessage(const Error& error) {
+    // One table: the engine's Options fields (as its messages name them) and the flags that set them.
+    static const std::map<std::string, std::string> kFlags = {
+        {"BandOptions::voxelSize", "--voxel-size"},
+        {"BandOptions::etaRelative", "--eta"},
+        {"BandOptions::iso", "--iso"},
+        {"BandOptions::qmcSamples", "--qmc"},
+        {"BandOptions::maxAnisotropy", "--max-anisotropy"},
+        {"BandOptions::maxVoxels", "--max-memory"},
+        {"ResolutionOptions::resolutionScale", "--resolution-scale"},
+        {"ResolutionOptions::maxAnisotropy", "--max-anisotropy"},
+        {"NoiseOptions::sigmaRel", "--sigma"},
+        {"CloudNoiseOptions::sigmaRel", "--sigma"},
+        {"SoupNoiseOptions::sigmaRel", "--sigma"},
+        {"BarnesHutOptions::beta", "--beta"},
+        {"TrainingOptions::surfacePoints", "--training-points"},
+        {"TrainingOptions::offsetRelative", "--training-offset"},
+        {"RegressionGpisOptions::labelNoise", "--label-noise"},
+        {"PcgOptions::tolerance", "--tolerance"},
+        {"PcgOptions::maxIterations", "--max-iterations"},
+        {"EigenOptions::count", "-k"},
+        {"EigenOptions::subspace", "--subspace"},
+        {"EigenOptions::tolerance", "--eigen-tolerance"},
+        {"EigenOptions::maxRestarts", "--max-restarts"},
+        {"EigenOptions::maxBytes", "--max-memory"},
+        {"MaternOptions::nu", "--nu"},
+        {"MaternOptions::kappa", "--kappa"},
+        {"MaternOptions::amplitude", "--amplitude"},
+        {"SmoothedDistanceOptions::alpha", "--alpha"},
+        {"SmoothedDistanceOptions::gridVoxelSize", "--grid-voxel-size"},
+        {"SmoothedDistanceOptions::padding", "--padding"},
+        {"SmoothedDistanceOptions::tolerance", "--distance-tolerance"},
+        {"SmoothedDistanceOptions::maxPoints", "--max-memory"},
+        {"RenderPanel::logScale", "--log"},
+        {"RenderPanel::slice", "--slice"},
+    };
+    std::string text = error.what();
+    std::vector<std::string> appended;
+    for (const std::string& field : error.parameters()) {
+        const auto flag = kFlags.find(field);
+        if (flag == kFlags.end()) continue;
+        bool found = false;
+        for (std::size_t at = text.find(field); at != std::string::npos; at = text.find(field, at + flag->second.size())) {
+            text.replace(at, field.size(), flag->second);
+            found = true;
+        }
+        if (!found && std::find(appended.begin(), appended.end(), flag->second) == appended.end()) appended.push_back(flag->second);
+    }
+    for (std::size_t i = 0; i < appended.size(); ++i) text += (i ? ", " : " (") + appended[i];
+    if (!appended.empty()) text += ")";
+    return text;
 }
 
 std::shared_ptr<void> limitThreads(int threads) {

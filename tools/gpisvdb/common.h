@@ -4,6 +4,7 @@
 #include <memory>
 #include <string>
 
+#include "gpisvdb/core/errors.h"
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
@@ -69,6 +70,11 @@ private:
 Progress makeProgress(bool quiet);
 /// The command line as typed (recorded in output metadata).
 std::string& commandLine();
+
+/// The error's message in the command line's terms: each Options field it names (Error::parameters, e.g.
+/// "BandOptions::voxelSize") replaced by the flag that sets it ("--voxel-size"), or the flag appended in
+/// parentheses when the message does not spell the field; fields without a flag are left as they are.
+std::string errorMessage(const Error& error);
 
 /// Installs the Ctrl-C handler (sets a flag the Progress polls).
 void installInterruptHandler();

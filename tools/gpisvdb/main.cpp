@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
         std::cerr << "gpisvdb: interrupted, no output written\n";
         return 130;
     } catch (const Error& e) {
-        std::cerr << "gpisvdb: error: " << e.what() << "\n";
+        std::cerr << "gpisvdb: error: " << cli::errorMessage(e) << "\n";
         return 1;
     } catch (const std::exception& e) {
         std::cerr << "gpisvdb: internal error: " << e.what() << "\n";

@@ -16,17 +16,19 @@ namespace {
 using openvdb::Coord;
 
 void checkOptions(const BandOptions& o) {
-    if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize)) throw ParameterError("--voxel-size must be finite and > 0");
-    if (!(o.etaRelative > 0) || !std::isfinite(o.etaRelative)) throw ParameterError("--eta must be finite and > 0");
-    if (!(o.maxAnisotropy >= 1)) throw ParameterError("--max-anisotropy must be >= 1");
-    if (!std::isfinite(o.iso)) throw ParameterError("--iso must be finite");
+    if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize)) throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0", {"BandOptions::voxelSize"});
+    if (!(o.etaRelative > 0) || !std::isfinite(o.etaRelative)) throw ParameterError("the band threshold η (BandOptions::etaRelative) must be finite and > 0", {"BandOptions::etaRelative"});
+    if (!(o.maxAnisotropy >= 1))
+        throw ParameterError("the anisotropy cap (BandOptions::maxAnisotropy) must be >= 1", {"BandOptions::maxAnisotropy"});
+    if (!std::isfinite(o.iso)) throw ParameterError("the iso-value (BandOptions::iso) must be finite", {"BandOptions::iso"});
 }
 
 Coord voxelOf(const Vec3d& p, double h) {
     const Vec3d k = p / h;
     if (k.cwiseAbs().maxCoeff() > 1e9)
         throw ParameterError("the voxel size is too small for the input's extent (index coordinates beyond 1e9): "
-                             "use a larger --voxel-size");
+                             "use a larger voxel size (BandOptions::voxelSize)",
+                             {"BandOptions::voxelSize"});
     return Coord(int(std::lround(k.x())), int(std::lround(k.y())), int(std::lround(k.z())));
 }
 
@@ -73,8 +75,9 @@ void checkBudget(std::size_t evaluated, const BandOptions& o, double h) {
     if (o.maxVoxels && evaluated > o.maxVoxels)
         throw ParameterError("the band needs more than " + std::to_string(o.maxVoxels) +
                              " voxels at voxel size " + std::to_string(h) +
-                             ", beyond --max-memory: use a larger --voxel-size (e.g. " + std::to_string(2 * h) +
-                             ") or raise --max-memory");
+                             ", beyond the voxel budget (BandOptions::maxVoxels): use a larger voxel size (BandOptions::voxelSize), e.g. " +
+                             numberText(2 * h) + ", or raise the budget",
+                             {"BandOptions::maxVoxels", "BandOptions::voxelSize"});
 }
 
 BandResult finish(std::vector<BandVoxel>&& accepted, const BandOptions& o, const BandStats& stats) {
@@ -126,8 +129,10 @@ struct Rounds {
 }  // namespace
 
 BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy) {
-    if (!(voxelSize > 0) || !std::isfinite(voxelSize)) throw ParameterError("--voxel-size must be finite and > 0");
-    if (!(maxAnisotropy >= 1)) throw ParameterError("--max-anisotropy must be >= 1");
+    if (!(voxelSize > 0) || !std::isfinite(voxelSize))
+        throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0", {"BandOptions::voxelSize"});
+    if (!(maxAnisotropy >= 1))
+        throw ParameterError("the anisotropy cap (BandOptions::maxAnisotropy) must be >= 1", {"BandOptions::maxAnisotropy"});
     BandResult r;
     Band& b = r.band;
     b.voxelSize = voxelSize;
@@ -136,9 +141,10 @@ BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, doubl
         b.index->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
     } catch (const openvdb::ArithmeticError&) {
         // OpenVDB refuses linear transforms whose determinant h³ is within 1e-15 of zero (h ≲ 1e-5).
-        throw ParameterError("the voxel size " + numberText(voxelSize) +
-                             " is below what an OpenVDB transform can hold (about 1e-5 world units): rescale the "
-                             "input to larger units (e.g. millimetres instead of metres)");
+        throw ParameterError("the voxel size (BandOptions::voxelSize) " + numberText(voxelSize) +
+                                 " is below what an OpenVDB transform can hold (about 1e-5 world units): rescale the "
+                                 "input to larger units (e.g. millimetres instead of metres)",
+                             {"BandOptions::voxelSize"});
     }
     b.index->setName("index");
     {
@@ -173,7 +179,7 @@ BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, doubl
         b.mean[i] = float(v.mean);
         b.stddev[i] = float(v.stddev);
         b.normal[i] = openvdb::Vec3f(float(v.normal.x()), float(v.normal.y()), float(v.normal.z()));
-        // === Selling stencil of T (regularised for anisotropy; DESIGN §3.5)
+        // === Selling stencil of T (regularised for anisotropy; docs/math.md#resolution)
         bool changed = false;
         const Selling3 s = selling(regularise(T, maxAnisotropy, changed));
         regularised[i] = changed;

@@ -20,7 +20,9 @@ using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<
 
 CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& options) {
     if (!(options.sigmaRel > 0) || !std::isfinite(options.sigmaRel))
-        throw ParameterError("--sigma must be finite and > 0 (got " + std::to_string(options.sigmaRel) + ")");
+        throw ParameterError("the relative noise σ (CloudNoiseOptions::sigmaRel) must be finite and > 0 (got " +
+                                 numberText(options.sigmaRel) + ")",
+                             {"CloudNoiseOptions::sigmaRel"});
     const std::size_t n = cloud.positions.size();
     if (n < 2) throw InputError("a point cloud needs at least 2 points (got " + std::to_string(n) + ")");
     if (cloud.normals.size() != n) throw InputError("the point cloud has no normals (need nx ny nz per point)");

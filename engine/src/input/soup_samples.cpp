@@ -31,7 +31,9 @@ double meanEdgeLength(const TriangleSoup& soup) {
 
 SoupSamples soupSamples(const TriangleSoup& soup, const SoupNoiseOptions& options) {
     if (!(options.sigmaRel > 0) || !std::isfinite(options.sigmaRel))
-        throw ParameterError("--sigma must be finite and > 0 (got " + std::to_string(options.sigmaRel) + ")");
+        throw ParameterError("the relative noise σ (SoupNoiseOptions::sigmaRel) must be finite and > 0 (got " +
+                                 numberText(options.sigmaRel) + ")",
+                             {"SoupNoiseOptions::sigmaRel"});
     SoupSamples out;
     const double ell = meanEdgeLength(soup);
     if (!(ell > 0)) throw InputError("the mesh has no triangle of non-zero area");

@@ -16,7 +16,9 @@ constexpr int kMaxDepth = 48;  // coincident samples stop splitting here
 BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOptions& options)
     : kernel_(s), options_(options) {
     if (!(options.beta > 1) || !std::isfinite(options.beta))
-        throw ParameterError("--beta must be finite and > 1 (got " + std::to_string(options.beta) + ")");
+        throw ParameterError("the Barnes-Hut opening criterion β (BarnesHutOptions::beta) must be finite and > 1 (got " +
+                                 numberText(options.beta) + ")",
+                             {"BarnesHutOptions::beta"});
     if (options.leafSize < 1) throw ParameterError("the Barnes-Hut leaf size must be >= 1");
     if (samples.size() == 0) throw InputError("no samples to build a GPIS from");
     if (samples.size() >= std::size_t(UINT32_MAX)) throw InputError("too many samples (limit 2^32 - 1)");
@@ -72,7 +74,7 @@ void BarnesHutGpis::split(std::uint32_t self, int depth) {
     for (std::uint32_t c = first; c < first + nodes_[self].childCount; ++c) split(c, depth + 1);
 }
 
-// === Far-field moments of one node (DESIGN §3.3)
+// === Far-field moments of one node (docs/math.md#barnes-hut)
 std::uint32_t BarnesHutGpis::addNode(std::uint32_t begin, std::uint32_t end) {
     Node node;
     node.begin = begin;

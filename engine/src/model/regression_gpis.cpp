@@ -17,8 +17,8 @@ namespace gpisvdb {
 LabelledPoints trainingFromSamples(const Samples& samples, const TrainingOptions& o, double* spacing) {
     const std::size_t N = samples.size();
     if (N == 0) throw InputError("regression GPIS: the input has no samples");
-    if (o.surfacePoints < 1) throw ParameterError("--training-points must be >= 1");
-    if (!(o.offsetRelative > 0) || !std::isfinite(o.offsetRelative)) throw ParameterError("--training-offset must be finite and > 0");
+    if (o.surfacePoints < 1) throw ParameterError("the training surface points (TrainingOptions::surfacePoints) must be >= 1", {"TrainingOptions::surfacePoints"});
+    if (!(o.offsetRelative > 0) || !std::isfinite(o.offsetRelative)) throw ParameterError("the training label offset (TrainingOptions::offsetRelative) must be finite and > 0", {"TrainingOptions::offsetRelative"});
     const std::size_t n = std::min(o.surfacePoints, N);
     // Farthest-point sampling: each new point is the sample farthest from those chosen (ties: lowest index).
     std::vector<std::size_t> chosen{0};
@@ -114,8 +114,8 @@ struct RegressionGpis::Impl {
 
 RegressionGpis::RegressionGpis(LabelledPoints t, const RegressionGpisOptions& o) {
     if (!(o.smoothing > 0) || !std::isfinite(o.smoothing)) throw ParameterError("regression GPIS: the kernel smoothing must be finite and > 0");
-    if (!(o.amplitude > 0) || !std::isfinite(o.amplitude)) throw ParameterError("--amplitude must be finite and > 0");
-    if (!(o.labelNoise >= 0) || !std::isfinite(o.labelNoise)) throw ParameterError("--label-noise must be finite and >= 0");
+    if (!(o.amplitude > 0) || !std::isfinite(o.amplitude)) throw ParameterError("regression GPIS: the prior variance (RegressionGpisOptions::amplitude) must be finite and > 0", {"RegressionGpisOptions::amplitude"});
+    if (!(o.labelNoise >= 0) || !std::isfinite(o.labelNoise)) throw ParameterError("regression GPIS: the label noise (RegressionGpisOptions::labelNoise) must be finite and >= 0", {"RegressionGpisOptions::labelNoise"});
     if (!std::isfinite(o.priorMean)) throw ParameterError("regression GPIS: the prior mean must be finite");
     const std::size_t n = t.size();
     if (n == 0) throw InputError("regression GPIS: no labelled points");
@@ -145,7 +145,8 @@ RegressionGpis::RegressionGpis(LabelledPoints t, const RegressionGpisOptions& o)
     Eigen::LLT<Eigen::MatrixXd> llt(K);
     if (llt.info() != Eigen::Success)
         throw Error("regression GPIS: the kernel matrix of the " + std::to_string(n) +
-                    " labelled points is not positive definite (repeated points?): raise --label-noise");
+                    " labelled points is not positive definite (repeated points?): raise the label noise (RegressionGpisOptions::labelNoise)",
+                    {"RegressionGpisOptions::labelNoise"});
     m.L = llt.matrixL();
     Eigen::VectorXd y(static_cast<Eigen::Index>(n));
     for (std::size_t i = 0; i < n; ++i) y[Eigen::Index(i)] = t.label[i] - o.priorMean;

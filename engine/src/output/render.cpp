@@ -97,7 +97,10 @@ std::array<double, 2> colourRange(const std::vector<float>& values, const Render
         lo = std::min(lo, double(v)), hi = std::max(hi, double(v)), absMax = std::max(absMax, std::abs(double(v)));
     }
     if (!(lo <= hi)) {
-        if (panel.logScale) throw ParameterError("--log needs positive values, and '" + panel.array + "' has none here");
+        if (panel.logScale)
+            throw ParameterError("a log colour scale (RenderPanel::logScale) needs positive values, and '" + panel.array +
+                                     "' has none here",
+                                 {"RenderPanel::logScale"});
         lo = 0, hi = 1;
     }
     if (panel.symmetric) lo = -absMax, hi = absMax;
@@ -294,13 +297,15 @@ SliceSpec sliceOf(const std::string& text) {
     const auto eq = text.find('=');
     const std::string axis = text.substr(0, eq);
     if (eq == std::string::npos || axis.size() != 1 || std::string("xyz").find(axis[0]) == std::string::npos)
-        throw ParameterError("--slice: expected axis=value with axis x, y or z (e.g. z=0.1), got '" + text + "'");
+        throw ParameterError("slice plane (RenderPanel::slice): expected axis=value with axis x, y or z (e.g. z=0.1), got '" +
+                                 text + "'",
+                             {"RenderPanel::slice"});
     s.axis = int(std::string("xyz").find(axis[0]));
     char* end = nullptr;
     const std::string number = text.substr(eq + 1);
     s.value = std::strtod(number.c_str(), &end);
     if (number.empty() || *end != '\0' || !std::isfinite(s.value))
-        throw ParameterError("--slice: '" + number + "' is not a finite number");
+        throw ParameterError("slice plane (RenderPanel::slice): '" + number + "' is not a finite number", {"RenderPanel::slice"});
     return s;
 }
 

@@ -65,6 +65,25 @@ openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>&
     return grids;
 }
 
+openvdb::GridPtrVec sellingGrids(const Band& band) {
+    openvdb::initialize();
+    openvdb::GridPtrVec grids;
+    for (std::size_t k = 0; k < 6; ++k) {
+        grids.push_back(channel<openvdb::FloatGrid>(band, "selling_weight_" + std::to_string(k), [&](std::size_t i) {
+            return int(k) < band.stencil[i].count ? band.stencil[i].weight[k] : 0.0f;
+        }));
+        auto offset = channel<openvdb::Vec3SGrid>(band, "selling_offset_" + std::to_string(k), [&](std::size_t i) {
+            const VoxelStencil& st = band.stencil[i];
+            if (int(k) >= st.count) return openvdb::Vec3s(0.0f);
+            return openvdb::Vec3s(float(st.offset[k][0]), float(st.offset[k][1]), float(st.offset[k][2]));
+        });
+        // Index-space integers: a tool must not rotate or rescale them with the transform.
+        offset->setVectorType(openvdb::VEC_INVARIANT);
+        grids.push_back(offset);
+    }
+    return grids;
+}
+
 void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
               const VdbWriteOptions& options) {
     openvdb::initialize();
@@ -82,7 +101,12 @@ void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const o
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
                   const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors,
                   const VdbWriteOptions& options) {
-    writeVdb(bandGrids(band, extra, vectors), path, metadata, options);
+    openvdb::GridPtrVec grids = bandGrids(band, extra, vectors);
+    if (options.sellingStencils) {
+        const openvdb::GridPtrVec selling = sellingGrids(band);
+        grids.insert(grids.end(), selling.begin(), selling.end());
+    }
+    writeVdb(grids, path, metadata, options);
 }
 
 }  // namespace gpisvdb

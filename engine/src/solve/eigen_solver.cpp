@@ -73,15 +73,21 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     // === Parameters
     if (L.cols() != n || mass.size() != n) throw ParameterError("eigen solver: L and M must be N × N and N");
     if (options.count < 1 || options.count >= n)
-        throw ParameterError("the number of eigenpairs k = " + std::to_string(options.count) + " must be between 1 and " +
-                             std::to_string(n - 1) + " (one less than the band's " + std::to_string(n) + " voxels)");
+        throw ParameterError("the number of eigenpairs k (EigenOptions::count) = " + std::to_string(options.count) +
+                                 " must be between 1 and " + std::to_string(n - 1) + " (one less than the band's " +
+                                 std::to_string(n) + " voxels)",
+                             {"EigenOptions::count"});
     if (!(mass.array() > 0).all() || !mass.allFinite()) throw ParameterError("eigen solver: the mass M must be positive");
     if (!(options.tolerance > 0) || options.maxRestarts < 1)
-        throw ParameterError("eigen solver: the tolerance must be > 0 and the restart cap ≥ 1");
+        throw ParameterError("eigen solver: the tolerance (EigenOptions::tolerance) must be > 0 and the restart cap "
+                             "(EigenOptions::maxRestarts) ≥ 1",
+                             {"EigenOptions::tolerance", "EigenOptions::maxRestarts"});
     const Eigen::Index k = options.count;
     Eigen::Index ncv = options.subspace > 0 ? options.subspace : std::max<Eigen::Index>(2 * k, k + 20);
     ncv = std::min(ncv, n);
-    if (ncv <= k) throw ParameterError("the Lanczos basis size must exceed k = " + std::to_string(k));
+    if (ncv <= k)
+        throw ParameterError("the Lanczos basis size (EigenOptions::subspace) must exceed k = " + std::to_string(k),
+                             {"EigenOptions::subspace"});
 
     EigenResult result;
     result.subspace = int(ncv);
@@ -97,7 +103,9 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
         throw ParameterError(std::to_string(k) + " eigenpairs of a band of " + std::to_string(n) + " voxels need about " +
                              numberText(needed / 1e9) + " GB (Cholesky factor of " + numberText(factor.cholmod().lnz) +
                              " entries, Lanczos basis and vectors), more than the " + numberText(options.maxBytes / 1e9) +
-                             " GB allowed: lower -k, use a coarser --voxel-size, or raise --max-memory");
+                             " GB allowed (EigenOptions::maxBytes): lower the eigenpair count (EigenOptions::count), use a coarser "
+                             "voxel size (BandOptions::voxelSize), or raise the memory limit",
+                             {"EigenOptions::maxBytes", "EigenOptions::count", "BandOptions::voxelSize"});
     factor.factorize(L);
     if (factor.info() != Eigen::Success)
         throw Error("the Laplacian is not positive definite (CHOLMOD failed to factor it): is the band empty or broken?");

@@ -85,8 +85,8 @@ struct PcgSolver::Impl {
 };
 
 PcgSolver::PcgSolver(const SymmetricOperator& A, const PcgOptions& o) {
-    if (!(o.tolerance > 0) || !std::isfinite(o.tolerance)) throw ParameterError("--tolerance must be finite and > 0");
-    if (o.maxIterations < 1) throw ParameterError("--max-iterations must be >= 1");
+    if (!(o.tolerance > 0) || !std::isfinite(o.tolerance)) throw ParameterError("the PCG tolerance (PcgOptions::tolerance) must be finite and > 0", {"PcgOptions::tolerance"});
+    if (o.maxIterations < 1) throw ParameterError("the PCG iteration cap (PcgOptions::maxIterations) must be >= 1", {"PcgOptions::maxIterations"});
     impl_ = std::make_unique<Impl>(A, o);
 }
 

@@ -25,8 +25,10 @@ Mat3d regularise(const Mat3d& T, double maxAnisotropy, bool& changed) {
 Resolution chooseResolution(const GpisModel& model, const Samples& samples, const ResolutionOptions& options,
                             const Progress& progress) {
     if (!(options.resolutionScale > 0) || !std::isfinite(options.resolutionScale))
-        throw ParameterError("--resolution-scale must be finite and > 0");
-    if (!(options.maxAnisotropy >= 1)) throw ParameterError("--max-anisotropy must be >= 1");
+        throw ParameterError("the resolution scale (ResolutionOptions::resolutionScale) must be finite and > 0",
+                             {"ResolutionOptions::resolutionScale"});
+    if (!(options.maxAnisotropy >= 1))
+        throw ParameterError("the anisotropy cap (ResolutionOptions::maxAnisotropy) must be >= 1", {"ResolutionOptions::maxAnisotropy"});
     const QmcRule rule(options.qmcSamples);
     const std::vector<ValueGradient> z = model.evaluate(samples.position, progress);
     std::vector<int> width(z.size(), 0);

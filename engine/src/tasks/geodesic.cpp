@@ -7,7 +7,7 @@ namespace gpisvdb {
 
 GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sources, const std::vector<Vec3d>& targets,
                                 const GeodesicOptions& options, const Progress& progress) {
-    if (sources.empty()) throw ParameterError("the geodesic distance needs at least one --source");
+    if (sources.empty()) throw ParameterError("the geodesic distance needs at least one source point");
     GeodesicResult r;
     // === Snap the points to band voxels
     for (const Vec3d& s : sources) r.sourceIndex.push_back(nearestBandVoxel(band, s));

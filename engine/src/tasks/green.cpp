@@ -8,7 +8,7 @@ namespace gpisvdb {
 
 std::size_t nearestBandVoxel(const Band& band, const Vec3d& point) {
     if (band.size() == 0) throw InputError("the band is empty");
-    if (!point.allFinite()) throw ParameterError("a --source or --target point must be three finite numbers");
+    if (!point.allFinite()) throw ParameterError("a source or target point must be three finite numbers");
     const double h = band.voxelSize;
     std::size_t best = 0;
     double bestD2 = std::numeric_limits<double>::infinity();

@@ -78,11 +78,15 @@ void evaluate(const Eigen::MatrixXd& U, const Posterior& post, double priorMean,
 double defaultKappa(double area) { return 0.1 * std::sqrt(area); }
 
 Eigen::VectorXd maternWeights(const Eigen::VectorXd& eigenvalues, double area, const MaternOptions& o) {
-    if (!(o.nu > 0)) throw ParameterError("the Matérn smoothness ν must be > 0 (1/2, 3/2, 5/2 or infinity), got " + numberText(o.nu));
+    if (!(o.nu > 0)) throw ParameterError("the Matérn smoothness ν (MaternOptions::nu) must be > 0 (1/2, 3/2, 5/2 or infinity), got " +
+                                           numberText(o.nu),
+                                       {"MaternOptions::nu"});
     if (!(o.kappa > 0) || !std::isfinite(o.kappa))
-        throw ParameterError("the Matérn length scale κ must be finite and > 0, got " + numberText(o.kappa));
+        throw ParameterError("the Matérn length scale κ (MaternOptions::kappa) must be finite and > 0, got " + numberText(o.kappa),
+                             {"MaternOptions::kappa"});
     if (!(o.amplitude > 0) || !std::isfinite(o.amplitude))
-        throw ParameterError("the prior variance must be finite and > 0, got " + numberText(o.amplitude));
+        throw ParameterError("the prior variance (MaternOptions::amplitude) must be finite and > 0, got " + numberText(o.amplitude),
+                             {"MaternOptions::amplitude"});
     if (!(o.dimension > 0)) throw ParameterError("the kernel dimension d must be > 0");
     if (!(area > 0) || !std::isfinite(area)) throw ParameterError("the band's area Σ M must be > 0");
     // === log ρ(λ_i) (Eq. 26), then normalise in log space

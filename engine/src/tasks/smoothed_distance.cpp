@@ -99,7 +99,7 @@ struct SmoothedDistance::Impl {
 };
 
 SmoothedDistance::SmoothedDistance(const Band& band, double alpha) : impl_(std::make_unique<Impl>()) {
-    if (!(alpha > 0) || !std::isfinite(alpha)) throw ParameterError("--alpha must be finite and > 0 (world units^-1)");
+    if (!(alpha > 0) || !std::isfinite(alpha)) throw ParameterError("the sharpness α (SmoothedDistanceOptions::alpha) must be finite and > 0 (world units^-1)", {"SmoothedDistanceOptions::alpha"});
     if (band.size() == 0) throw Error("smoothed distance: the band is empty");
     const double h3 = std::pow(band.voxelSize, 3);
     impl_->alpha = alpha;
@@ -195,10 +195,12 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
     const Vec3d hi = band.voxelSize * Vec3d(box.max().x(), box.max().y(), box.max().z());
     const double side = (hi - lo).maxCoeff();
     const double pad = o.padding >= 0 ? o.padding : 0.1 * side;
-    if (!std::isfinite(pad)) throw ParameterError("--padding must be finite");
-    if (o.gridVoxelSize < 0 || !std::isfinite(o.gridVoxelSize)) throw ParameterError("--grid-voxel-size must be finite and > 0");
+    if (!std::isfinite(pad)) throw ParameterError("the grid padding (SmoothedDistanceOptions::padding) must be finite", {"SmoothedDistanceOptions::padding"});
+    if (o.gridVoxelSize < 0 || !std::isfinite(o.gridVoxelSize))
+        throw ParameterError("the grid voxel size H (SmoothedDistanceOptions::gridVoxelSize) must be finite and > 0", {"SmoothedDistanceOptions::gridVoxelSize"});
     const double H = o.gridVoxelSize > 0 ? o.gridVoxelSize : (side + 2 * pad) / 128.0;
-    if (!(H > 0) || !std::isfinite(H)) throw ParameterError("--grid-voxel-size must be finite and > 0");
+    if (!(H > 0) || !std::isfinite(H))
+        throw ParameterError("the grid voxel size H (SmoothedDistanceOptions::gridVoxelSize) must be finite and > 0", {"SmoothedDistanceOptions::gridVoxelSize"});
     Eigen::Vector3d first, last;
     for (int c = 0; c < 3; ++c) {
         first[c] = std::floor((lo[c] - pad) / H);
@@ -208,11 +210,12 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
     const double points = count.prod();
     const double cap = o.maxPoints ? double(o.maxPoints) : 2147483648.0;
     if (!(points <= cap) || (count.array() > 2e9).any())
-        throw ParameterError("the distance grid would hold " + numberText(points) + " points at --grid-voxel-size " + numberText(H) +
-                             ", more than " + numberText(cap) + ": use --grid-voxel-size " +
-                             numberText(H * std::cbrt(points / cap) * 1.01) + " or larger");
+        throw ParameterError("the distance grid would hold " + numberText(points) + " points at grid voxel size H = " + numberText(H) +
+                             ", more than " + numberText(cap) + ": use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " +
+                             numberText(H * std::cbrt(points / cap) * 1.01) + " or larger",
+                             {"SmoothedDistanceOptions::gridVoxelSize"});
     const double tol = o.tolerance > 0 ? o.tolerance : 1e-2 * H;
-    if (!std::isfinite(tol)) throw ParameterError("--distance-tolerance must be finite and > 0");
+    if (!std::isfinite(tol)) throw ParameterError("the distance tolerance (SmoothedDistanceOptions::tolerance) must be finite and > 0", {"SmoothedDistanceOptions::tolerance"});
 
     // === Evaluate, in slabs of z so that progress and Ctrl-C stay on the calling thread
     const int nx = int(count[0]), ny = int(count[1]), nz = int(count[2]);

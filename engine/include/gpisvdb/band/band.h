@@ -1,5 +1,5 @@
 #pragma once
-// The narrow band Ω = {x = h·k : μ(x) > η} (paper Sec. 8.2, DESIGN §3.6): an OpenVDB index tree (active voxel →
+// The narrow band Ω = {x = h·k : μ(x) > η} (paper Sec. 8.2; docs/math.md#band): an OpenVDB index tree (active voxel →
 // linear index, assigned in leaf order) and flat per-voxel channels. Operators run matrix-free over it.
 #include <array>
 #include <cstdint>
@@ -23,7 +23,7 @@ struct Band {
     openvdb::Int32Grid::Ptr index;         ///< active voxels hold their linear index; background −1
     std::vector<openvdb::Coord> coord;     ///< index space coordinates, by linear index
 
-    // Channels, by linear index (float storage; DESIGN §4).
+    // Channels, by linear index (float storage; docs/band.md).
     std::vector<float> mu;                 ///< μ, world units⁻¹
     std::vector<std::array<float, 6>> T;   ///< T as (xx, yy, zz, xy, xz, yz), world units⁻¹
     std::vector<float> mean;               ///< γ

@@ -1,5 +1,5 @@
 #pragma once
-// Oriented point clouds with per-point uncertainty (DESIGN §3.1).
+// Oriented point clouds with per-point uncertainty (docs/math.md#samples).
 #include <vector>
 
 #include "gpisvdb/core/types.h"

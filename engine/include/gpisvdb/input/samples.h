@@ -1,5 +1,5 @@
 #pragma once
-// The GPIS input (DESIGN §3.1): oriented samples with Gaussian noise on positions and vector areas.
+// The GPIS input (docs/math.md#samples): oriented samples with Gaussian noise on positions and vector areas.
 #include <string>
 #include <vector>
 

@@ -1,5 +1,5 @@
 #pragma once
-// Triangle soups and the vertex-noise model of paper App. B (DESIGN §3.1).
+// Triangle soups and the vertex-noise model of paper App. B (docs/math.md#samples).
 #include <array>
 #include <cstddef>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-// The Kac–Rice surface density μ and tangent-plane tensor T at one point (paper Eq. 4, 11, 16; DESIGN §3.4).
+// The Kac–Rice surface density μ and tangent-plane tensor T at one point (paper Eq. 4, 11, 16; docs/math.md#kac-rice).
 // Condition ∇φ on φ = u: X ~ N(m, Σ), m = ∇γ + c_g0 (u − γ)/c₀₀, Σ = C_gg − c_g0 c_g0ᵀ/c₀₀. Then
 //   μ = p(u) E‖X‖,   T = p(u) E[‖X‖ I − X Xᵀ/‖X‖]   (tr T = 2μ exactly, T symmetric PSD),
 // with p the density of φ(x) ~ N(γ, c₀₀) at u and the expectations by the QMC rule, X_k = m + L z_k, Σ = L Lᵀ.

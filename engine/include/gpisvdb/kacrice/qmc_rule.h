@@ -1,5 +1,5 @@
 #pragma once
-// A deterministic quasi-Monte-Carlo rule for expectations over N(0, I₃) (DESIGN §3.4): the first S points of
+// A deterministic quasi-Monte-Carlo rule for expectations over N(0, I₃) (docs/math.md#kac-rice): the first S points of
 // the 3D Sobol sequence (Joe–Kuo direction numbers), shifted to the centres of their cells and mapped through
 // the inverse normal CDF. Built once, shared by every evaluation.
 #include <vector>

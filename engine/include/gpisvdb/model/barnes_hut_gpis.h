@@ -1,5 +1,5 @@
 #pragma once
-// The Barnes–Hut GPIS (paper Sec. 9.1, DESIGN §3.3): an octree over the samples, built once. Each node keeps
+// The Barnes–Hut GPIS (paper Sec. 9.1; docs/math.md#barnes-hut): an octree over the samples, built once. Each node keeps
 // moments about its |w|-weighted centroid c (δ = p − c): for the mean Σ w, Σ δ wᵀ, Σ δδw (a Taylor expansion
 // of ∇ρ(y − δ) to second order), for the covariance Σ σ² w wᵀ, Σ σ² δ w wᵀ, Σ Σ', Σ δ Σ' (first order).
 // A node stands in for its samples when ‖x − c‖ > β·r (mean) or > β_cov(d)·r (covariance; see

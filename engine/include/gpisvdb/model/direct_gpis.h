@@ -1,5 +1,5 @@
 #pragma once
-// The reference GPIS: exact O(n) sums over all samples (DESIGN §3.3).
+// The reference GPIS: exact O(n) sums over all samples (docs/math.md#gpis).
 #include "gpisvdb/input/samples.h"
 #include "gpisvdb/model/gpis_model.h"
 #include "gpisvdb/model/kernel.h"

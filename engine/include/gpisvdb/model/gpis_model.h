@@ -1,6 +1,6 @@
 #pragma once
 // A GPIS model: at any point x, Z(x) = (φ(x), ∇φ(x)) is Gaussian with a mean in R⁴ and a 4×4 covariance
-// (paper Eq. 5, 7; DESIGN §3.3). Every task takes a GpisModel and nothing else of the input.
+// (paper Eq. 5, 7; docs/math.md#gpis). Every task takes a GpisModel and nothing else of the input.
 #include <memory>
 #include <vector>
 

@@ -1,5 +1,5 @@
 #pragma once
-// The regularized Newton potential ρ(r) = erf(r / (√2 s)) / r (paper Eq. 6, DESIGN §3.2) and its
+// The regularized Newton potential ρ(r) = erf(r / (√2 s)) / r (paper Eq. 6; docs/math.md#gpis) and its
 // derivatives up to order 4, exact from r = 0 to the far field.
 //
 // ρ is a smooth function of t = r², ρ = G(t), so every Cartesian derivative is a combination of

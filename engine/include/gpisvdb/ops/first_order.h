@@ -1,5 +1,5 @@
 #pragma once
-// First-order operators on a band (paper Eq. 19, 22; DESIGN §3.7). Vector fields are stored interleaved,
+// First-order operators on a band (paper Eq. 19, 22; docs/math.md#operators). Vector fields are stored interleaved,
 // 3 floats per voxel (x, y, z of voxel i at 3i … 3i+2), world units per the field's own units.
 //   G    forward differences, (G u)_i = ((u(x_i + h e_c) − u(x_i)) / h)_c, u = 0 outside the band (3N × N)
 //   G_φ  = BlockDiag(T/μ) G: the GPIS gradient of Eq. 19 (T/μ averages tangent-plane projectors: eigenvalues in [0, 1])

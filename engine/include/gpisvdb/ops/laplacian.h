@@ -1,5 +1,5 @@
 #pragma once
-// The adaptive-stencil Laplacian L and the mass M of a band (paper Eq. 22, 24; DESIGN §3.7).
+// The adaptive-stencil Laplacian L and the mass M of a band (paper Eq. 22, 24; docs/math.md#operators).
 //   E_h(u) = h^(d−2) Σ_x Σ_k λ_k(x) [(u(x+he_k) − u(x))² + (u(x−he_k) − u(x))²] / 2,   uᵀ L u = E_h(u),
 // so each edge (x, x+he) carries h (λ^e(x) + λ^e(x+he))/2 (d = 3), and an edge leaving the band adds to the
 // diagonal only (u = 0 outside: homogeneous Dirichlet). M = h³ diag(μ), so uᵀ M v → ∫ u v dμ; Δ_φ = −M⁻¹ L.

@@ -1,5 +1,5 @@
 #pragma once
-// The mean surface {γ = u} of a band file, with any grid sampled at its vertices (DESIGN §5).
+// The mean surface {γ = u} of a band file, with any grid sampled at its vertices (docs/operators.md, "Mesh export").
 #include <array>
 #include <openvdb/openvdb.h>
 #include <string>

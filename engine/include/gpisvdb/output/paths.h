@@ -1,5 +1,5 @@
 #pragma once
-// Writing shortest paths as polylines (DESIGN §5): VTK XML PolyData (.vtp: lines, point data `geodesic` = U,
+// Writing shortest paths as polylines (docs/geodesic.md): VTK XML PolyData (.vtp: lines, point data `geodesic` = U,
 // cell data `length`), Wavefront OBJ (.obj: `v` and `l` records) or JSON (.json: points, U, lengths).
 // World units throughout.
 #include <string>

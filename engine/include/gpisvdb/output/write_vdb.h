@@ -1,5 +1,5 @@
 #pragma once
-// Writing a band as an OpenVDB file (DESIGN §5): float32 grids, Blosc compression, the voxel size and origin in
+// Writing a band as an OpenVDB file (docs/band.md, "The .vdb file"): float32 grids, Blosc compression, the voxel size and origin in
 // each grid's transform (voxel k is centred at h·k), so the file opens in place in Houdini and Blender.
 // Only float and Vec3f grids are written: an unregistered type (Mat3s) makes the whole file unreadable to
 // vdb_print and pyopenvdb, and Debian's pyopenvdb refuses a file with an Int32Grid too.
@@ -28,7 +28,8 @@ struct NamedVectorChannel {
 };
 
 struct VdbWriteOptions {
-    bool halfFloat = false;  ///< store float and vec3 grids as 16-bit halves (half the file; ~3 significant digits)
+    bool halfFloat = false;        ///< store float and vec3 grids as 16-bit halves (half the file; ~3 significant digits)
+    bool sellingStencils = false;  ///< also write each voxel's Selling decomposition (sellingGrids), ~96 bytes per voxel
 };
 
 /// Grids: mu (fog volume), mean, stddev, T_diag (xx, yy, zz), T_offdiag (xy, xz, yz), normal (outward unit),
@@ -37,11 +38,17 @@ struct VdbWriteOptions {
 openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>& extra = {},
                               const std::vector<NamedVectorChannel>& vectors = {});
 
+/// Each voxel's Selling decomposition T ≈ Σ_k λ_k e_k e_kᵀ (k = 0..5), enough to rebuild L from the file alone
+/// (docs/band.md#rebuilding-l-from-the-file): float grids selling_weight_0..5 (λ_k, world units⁻¹; 0 for unused
+/// terms) and Vec3f grids selling_offset_0..5 (e_k in index space, integer components, exact also in half floats).
+/// Every grid is active on exactly the band's voxels, like mu.
+openvdb::GridPtrVec sellingGrids(const Band& band);
+
 /// Writes grids with Blosc compression and the file metadata. Throws OutputError when the file cannot be written.
 void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
               const VdbWriteOptions& options = {});
 
-/// bandGrids, then writeVdb.
+/// bandGrids (and sellingGrids when options.sellingStencils), then writeVdb.
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
                   const std::vector<NamedChannel>& extra = {}, const std::vector<NamedVectorChannel>& vectors = {},
                   const VdbWriteOptions& options = {});

@@ -1,5 +1,5 @@
 #pragma once
-// The k lowest pairs of the generalized eigenproblem L u = λ M u (paper Sec. 10.1; DESIGN §3.8), L symmetric
+// The k lowest pairs of the generalized eigenproblem L u = λ M u (paper Sec. 10.1; docs/math.md#spectrum), L symmetric
 // positive definite (the band Laplacian with homogeneous Dirichlet conditions), M diagonal positive (the mass).
 // Method, chosen by measurement (docs/spectrum.md, bench/results/spectrum.json): implicitly restarted Lanczos
 // (Spectra) on the shift-invert operator L⁻¹ M, with L factored once by CHOLMOD's supernodal Cholesky. The

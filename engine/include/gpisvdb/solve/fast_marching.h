@@ -1,5 +1,5 @@
 #pragma once
-// Hamiltonian fast marching (Mirebeau–Portegies 2019; paper Eq. 28; DESIGN §3.8) for the generalised eikonal
+// Hamiltonian fast marching (Mirebeau–Portegies 2019; paper Eq. 28; docs/math.md#fast-marching) for the generalised eikonal
 // equation ‖∇U‖_T = √(∇U·T∇U) = 1 on a band, with T given by the band's Selling stencils T = Σ λ_k e_k e_kᵀ.
 // At each voxel x the upwind scheme
 //     Σ_k λ_k max(0, U(x) − U(x − h e_k), U(x) − U(x + h e_k))² = h²

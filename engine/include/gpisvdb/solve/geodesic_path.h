@@ -1,5 +1,5 @@
 #pragma once
-// Shortest paths on a band from a fast-marching distance U (paper Sec. 10.2; DESIGN §3.8): backtracking from a
+// Shortest paths on a band from a fast-marching distance U (paper Sec. 10.2; docs/math.md#paths): backtracking from a
 // target along the upwind geodesic flow
 //     V(x) = Σ_k λ_k max(0, U(x) − U(x ± h e_k)) (±e_k)   (the sign of the smaller neighbour of each term),
 // the upwind form of −T∇U, down to a voxel where U = 0 (a source).

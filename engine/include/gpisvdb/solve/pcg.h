@@ -1,5 +1,5 @@
 #pragma once
-// Preconditioned conjugate gradients for a symmetric positive definite operator (DESIGN §3.8): float storage,
+// Preconditioned conjugate gradients for a symmetric positive definite operator (docs/math.md#pcg): float storage,
 // double reductions, working in place on the caller's arrays. The solver allocates its work vectors once
 // (r, z, p, A p and the preconditioner: 5 floats per unknown for Jacobi, plus the incomplete factor for IC), so
 // repeated solves — and every iteration — allocate nothing of size N. Iterates until the recursively updated

@@ -1,5 +1,5 @@
 #pragma once
-// The voxel size (paper Eq. 25, DESIGN §3.6): h* = λ_res / max_i w(p_i), w the Selling stencil width of T at the
+// The voxel size (paper Eq. 25; docs/math.md#resolution): h* = λ_res / max_i w(p_i), w the Selling stencil width of T at the
 // samples; since Eq. 25 alone can under-resolve μ, the default is min(h*, w_μ/2) with w_μ = median √c₀₀/‖∇γ‖
 // over the samples (μ's width across the surface).
 #include "gpisvdb/core/progress.h"

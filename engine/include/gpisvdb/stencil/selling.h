@@ -1,5 +1,5 @@
 #pragma once
-// Selling's decomposition (Fehrenbach–Mirebeau 2014; DESIGN §3.5): any symmetric positive (semi-)definite
+// Selling's decomposition (Fehrenbach–Mirebeau 2014; docs/math.md#selling): any symmetric positive (semi-)definite
 // T = Σ_k λ_k e_k e_kᵀ with λ_k ≥ 0 and integer offsets e_k, from an obtuse superbase. In 3D: at most 6 terms;
 // in 2D: at most 3.
 #include <array>

@@ -1,8 +1,8 @@
 #pragma once
 // The Green's function of the GPIS Laplacian (paper Alg. 1, Fig. 5): L f = M δ_y, y the band voxel nearest the
 // source point, δ_y the Dirac of the measure μ at y (∫ δ_y u dμ = u(y), i.e. M δ_y = e_y). With this δ the
-// result f(x) = G(x, y) = (L⁻¹)_xy is symmetric in x and y. (DESIGN §3.9 takes the Lebesgue Dirac e_y/h³,
-// giving μ(y) G(x, y): not symmetric wherever μ(x) ≠ μ(y); multiply by μ(y) to get that scaling.)
+// result f(x) = G(x, y) = (L⁻¹)_xy is symmetric in x and y. (The Lebesgue Dirac e_y/h³ would give
+// μ(y) G(x, y): not symmetric wherever μ(x) ≠ μ(y); multiply by μ(y) to get that scaling. docs/math.md#green.)
 #include <vector>
 
 #include "gpisvdb/band/band.h"

@@ -1,5 +1,5 @@
 #pragma once
-// Hodge decomposition of a vector field on the band (paper Eq. 29, App. E; DESIGN §3.9):
+// Hodge decomposition of a vector field on the band (paper Eq. 29, App. E; docs/math.md#hodge):
 //   V = G_φ ψ + V_free,   K ψ = Gᵀ (M ⊗ I) V,   K = M D_φ G_φ = Gᵀ BlockDiag(h³ T) G (NaiveLaplacianOperator),
 // so that M D_φ V_free = Gᵀ (M ⊗ I) V − K ψ is the PCG's residual: D_φ V_free = 0 to the solver's tolerance (in the
 // M-weighted norm). The projection I − G_φ (D_φ G_φ)⁻¹ D_φ is orthogonal in the inner product ⟨a, b⟩_S =

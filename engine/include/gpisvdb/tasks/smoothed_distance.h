@@ -1,5 +1,5 @@
 #pragma once
-// The smoothed distance to a GPIS (paper Eq. 31, DESIGN §3.9):
+// The smoothed distance to a GPIS (paper Eq. 31; docs/math.md#smoothed-distance):
 //   d_α(x) = −(1/α) log Σ_j exp(−α ‖x − x_j‖) μ(x_j) h³   over the band's voxels x_j,
 // a LogSumExp soft minimum of the distance weighted by the surface density. Stable for any α and distance: the sum
 // is taken relative to d* = min_j ‖x − x_j‖ (found first), so its largest term is μ h³ and nothing under- or

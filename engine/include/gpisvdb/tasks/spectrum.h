@@ -1,7 +1,8 @@
 #pragma once
 // The spectrum of the GPIS Laplacian (paper Sec. 10.1): the k lowest pairs of L u = λ M u on the band, u = 0
 // outside it (homogeneous Dirichlet), u M-orthonormal: Σ_x u_i(x) u_j(x) μ(x) h³ = δ_ij, i.e. orthonormal in
-// L²(μ). The λ are those of −Δ_φ (world units⁻²); on a thin band about the unit sphere they approach l(l+1).
+// L²(μ). The λ are those of −Δ_φ (world units⁻²); on a thin band about the unit sphere the differences λ − λ₀
+// approach l(l+1) (docs/spectrum.md).
 #include "gpisvdb/band/band.h"
 #include "gpisvdb/solve/eigen_solver.h"
 

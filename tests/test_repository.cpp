@@ -1,0 +1,129 @@
+// The repository stands alone: what a user clones holds every file its docs, tests and benchmarks name.
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "cli_run.h"
+
+namespace fs = std::filesystem;
+using gpisvdb::test::cli::runShell;
+
+namespace {
+
+const fs::path kSource = GPISVDB_SOURCE_DIR;
+
+/// The tracked files (git ls-files); without git (a source archive), every file below the source directory
+/// except build trees and .git.
+std::vector<fs::path> trackedFiles() {
+    std::vector<fs::path> files;
+    const auto r = runShell("git -C '" + kSource.string() + "' ls-files");
+    if (r.code == 0 && !r.out.empty()) {
+        std::istringstream lines(r.out);
+        for (std::string line; std::getline(lines, line);)
+            if (!line.empty()) files.push_back(kSource / line);
+        return files;
+    }
+    for (auto it = fs::recursive_directory_iterator(kSource); it != fs::recursive_directory_iterator(); ++it) {
+        const std::string name = it->path().filename().string();
+        if (it->is_directory() && (name == ".git" || name.rfind("build", 0) == 0)) {
+            it.disable_recursion_pending();
+            continue;
+        }
+        if (it->is_regular_file()) files.push_back(it->path());
+    }
+    return files;
+}
+
+std::string readAll(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+bool isText(const fs::path& p) {
+    static const std::vector<std::string> binary = {".png", ".vdb", ".jpg"};
+    return std::find(binary.begin(), binary.end(), p.extension().string()) == binary.end();
+}
+
+}  // namespace
+
+TEST_CASE("repository: no tracked file names a path outside the repository", "[repository]") {
+    // Built from parts so that this file does not name it either.
+    const std::vector<std::string> outside = {std::string("..") + "/shared", std::string("shared") + "/DESIGN",
+                                              std::string("shared") + "/data", std::string("shared") + "/paper"};
+    const auto files = trackedFiles();
+    REQUIRE(files.size() > 50);
+    for (const fs::path& f : files) {
+        if (!isText(f) || !fs::is_regular_file(f)) continue;
+        const std::string text = readAll(f);
+        for (const std::string& needle : outside) {
+            INFO(fs::relative(f, kSource).string() << " mentions " << needle);
+            CHECK(text.find(needle) == std::string::npos);
+        }
+    }
+}
+
+TEST_CASE("repository: every relative link in the Markdown docs names a file of the repository", "[repository]") {
+    const std::regex link(R"(\]\(([^)#\s]+)(#[^)\s]*)?\))");
+    int checked = 0;
+    for (const fs::path& f : trackedFiles()) {
+        if (f.extension() != ".md") continue;
+        const std::string text = readAll(f);
+        for (auto m = std::sregex_iterator(text.begin(), text.end(), link); m != std::sregex_iterator(); ++m) {
+            const std::string target = (*m)[1];
+            if (target.find("://") != std::string::npos || target.rfind("mailto:", 0) == 0) continue;
+            const fs::path resolved = (f.parent_path() / target).lexically_normal();
+            INFO(fs::relative(f, kSource).string() << " links " << target);
+            CHECK(fs::exists(resolved));
+            CHECK(resolved.string().rfind(kSource.lexically_normal().string(), 0) == 0);  // inside the repository
+            ++checked;
+        }
+    }
+    CHECK(checked > 20);
+}
+
+TEST_CASE("repository: the data the tests and benchmarks read ships with it, each file named in data/README.md", "[repository]") {
+    const std::string readme = readAll(kSource / "data" / "README.md");
+    REQUIRE(!readme.empty());
+    int files = 0;
+    for (const auto& entry : fs::directory_iterator(kSource / "data")) {
+        const std::string name = entry.path().filename().string();
+        if (name == "README.md") continue;
+        INFO(name);
+        CHECK(readme.find("`" + name + "`") != std::string::npos);
+        ++files;
+    }
+    CHECK(files >= 5);
+}
+
+TEST_CASE("repository: bench/run --dry-run names only programs and files that exist", "[repository]") {
+    const auto r = runShell("cd '" + kSource.string() + "' && bench/run --dry-run --no-build");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    int commands = 0;
+    std::istringstream lines(r.err);
+    for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("+ ", 0) != 0) continue;
+        ++commands;
+        std::istringstream words(line.substr(2));
+        std::vector<std::string> w;
+        for (std::string s; words >> s;) w.push_back(s);
+        if (w.size() >= 2 && w[0] == "rm") continue;  // names a file it is about to replace
+        for (std::size_t i = 0; i < w.size(); ++i) {
+            const std::string& word = w[i];
+            INFO(line << ": " << word);
+            if (word.rfind("build/bin/", 0) == 0) {
+                CHECK(fs::exists(fs::path(GPISVDB_BINARY_DIR) / "bin" / word.substr(10)));  // a target of this build
+            } else if (i > 0 && w[i - 1] == "--data") {
+                CHECK(fs::is_directory(kSource / word));
+                CHECK(fs::exists(kSource / word / "bunny.obj"));
+            } else if (word.find('/') != std::string::npos && word[0] != '-') {
+                CHECK(fs::exists(kSource / word));
+            }
+        }
+    }
+    CHECK(commands >= 10);
+}
