@@ -272,6 +272,13 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
          "cannot be read as an OpenVDB file"},
         {"hodge " + bunny + " --preset mixed --tolerance -1 -o " + vdb, "--tolerance"},
         {"render " + vdb + " --grid mu -o " + temp("flag.png") + " --slice w=1", "slice plane (--slice): expected axis=value"},
+        // Absurd requests, refused before any attempt (docs/guide.md#limits)
+        {"evaluate " + temp("huge.off", "OFF\n1000000000 1 0\n0 0 0\n") + " --at " + pts + " -o " + out,
+         "1000000000 vertices declared, more than the 1e+08 samples an input may hold"},
+        {"band " + temp("huge.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                    "element face 200000000\nproperty list uchar int vertex_indices\nend_header\n") + " -o " + vdb,
+         "200000000 face elements declared, more than the 1e+08 samples"},
+        {"band " + bunny + " -o " + vdb + " --voxel-size 0.006 --sigma 2 --max-memory 1000000G", "a band can hold: use --voxel-size"},
     };
     for (const Case& c : cases) {
         fs::remove(out);
@@ -1013,6 +1020,8 @@ TEST_CASE("cli: render and sample refuse bad input and parameters with one line 
         {"render " + s.vdb + " --grid mu --range 2,1 -o " + png, "--range"},
         {"render " + s.vdb + " --grid mu --log --range 0,1 -o " + png, "--range"},
         {"render " + s.vdb + " --grid mu --size 10,10 -o " + png, "pixels"},
+        {"render " + s.vdb + " --grid mu --size 1e6,1e6 -o " + png, "--size: picture panels must be whole numbers of 64 to 8192"},
+        {"render " + s.vdb + " --grid mu --size 1e300,100 -o " + png, "--size"},
         {"render " + s.vdb + " --grid mu --paths /nonexistent.vtp -o " + png, "no such file"},
         {"render " + s.vdb + " --grid mu -o " + temp("bad_render.jpg"), ".png"},
         {"sample " + s.vdb + " --at /nonexistent.obj -o " + mesh, "no such file"},
@@ -1029,4 +1038,109 @@ TEST_CASE("cli: render and sample refuse bad input and parameters with one line 
         CHECK_FALSE(leftovers(png));
         CHECK_FALSE(leftovers(mesh));
     }
+}
+
+namespace {
+
+/// Active values of every float and vec3 grid in a .vdb that are not finite: "NAME: count" per offending grid.
+std::string nonFiniteActiveValues(const std::string& path) {
+    openvdb::initialize();
+    openvdb::io::File file(path);
+    file.open();
+    std::string bad;
+    const openvdb::GridPtrVecPtr grids = file.getGrids();
+    for (const auto& g : *grids) {
+        std::size_t count = 0;
+        if (auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(g)) {
+            for (auto it = f->cbeginValueOn(); it; ++it) count += std::isfinite(*it) ? 0 : 1;
+            count += std::isfinite(f->background()) ? 0 : 1;
+        } else if (auto v = openvdb::gridPtrCast<openvdb::Vec3SGrid>(g)) {
+            for (auto it = v->cbeginValueOn(); it; ++it)
+                count += std::isfinite((*it)[0]) && std::isfinite((*it)[1]) && std::isfinite((*it)[2]) ? 0 : 1;
+        } else {
+            bad += g->getName() + ": not a float or vec3 grid; ";
+        }
+        if (count) bad += g->getName() + ": " + std::to_string(count) + " non-finite; ";
+    }
+    file.close();
+    return bad;
+}
+
+}  // namespace
+
+TEST_CASE("cli: no command writes an active inf or NaN into any grid of any .vdb", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
+    const std::string small = " --sigma 2 --voxel-size 0.4 --quiet";
+    std::string csv;  // regress: a few data points on the bunny
+    {
+        std::ifstream obj(bunny);
+        int count = 0;
+        for (std::string line; std::getline(obj, line) && count < 4;)
+            if (line.rfind("v ", 0) == 0 && (++count, true)) csv += line.substr(2) + " " + std::to_string(count) + "\n";
+        for (char& c : csv)
+            if (c == ' ') c = ',';
+    }
+    const std::string data = temp("finite_regress.csv", csv);
+    struct Case {
+        std::string name, args;
+    };
+    const std::vector<Case> cases = {
+        {"band", "band " + bunny + small + " --stencils"},
+        {"band-half", "band " + bunny + small + " --half"},
+        {"green", "green " + bunny + " --source 0.5,6,1" + small},
+        // A target beyond the march's reach (--stop-at-targets) leaves voxels at U = +inf: they must be inactive.
+        {"geodesic", "geodesic " + bunny + " --source 0.5,6,1 --target 0.5,6.5,1 --stop-at-targets" + small},
+        {"spectrum", "spectrum " + bunny + " -k 3" + small},
+        {"hodge", "hodge " + bunny + " --preset mixed" + small},
+        {"distance", "distance " + bunny + " --alpha 5 --grid-voxel-size 0.6 --level 0.3" + small},
+        {"regress", "regress " + bunny + " --data " + data + " -k 10" + small},
+    };
+    for (const Case& c : cases) {
+        const std::string vdb = temp("finite_" + c.name + ".vdb");
+        fs::remove(vdb);
+        const Run r = run(c.args + " -o " + vdb);
+        INFO(c.args << "\nstderr: " << r.err);
+        REQUIRE(r.code == 0);
+        CHECK(nonFiniteActiveValues(vdb).empty());
+    }
+}
+
+TEST_CASE("cli: the report warns when beta, the QMC count or the anisotropy cap exceed their documented error", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
+    const std::string vdb = temp("warn.vdb"), json = temp("warn.json");
+    const std::string small = " --sigma 2 --voxel-size 0.4 -o " + vdb + " --report " + json;
+    // Defaults: no warnings, and nothing on stderr with --quiet.
+    Run r = run("band " + bunny + small + " --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    CHECK(r.err.empty());
+    nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
+    REQUIRE(report["warnings"].is_array());
+    const std::size_t regularised = report["band"]["regularised_voxels"].get<std::size_t>();
+    const std::size_t voxels = report["band"]["voxels"].get<std::size_t>();
+    CHECK(report["warnings"].size() == (regularised > voxels / 100 ? 1u : 0u));
+    // Each setting outside its documented range: one warning naming its flag, in the report and on stderr.
+    struct Case {
+        std::string flags, expect;
+    };
+    for (const Case& c : {Case{" --beta 3", "--beta 3 is below 6"}, Case{" --qmc 64", "--qmc 64 is below 512"},
+                          Case{" --max-anisotropy 1", "regularised by the anisotropy cap --max-anisotropy 1"}}) {
+        r = run("band " + bunny + small + c.flags);
+        INFO(c.flags << "\nstderr: " << r.err);
+        REQUIRE(r.code == 0);
+        CHECK_THAT(r.err, Catch::Contains("warning: ") && Catch::Contains(c.expect));
+        report = nlohmann::json::parse(std::ifstream(json));
+        bool found = false;
+        for (const auto& w : report["warnings"]) found |= w.get<std::string>().find(c.expect) != std::string::npos;
+        CHECK(found);
+        // --quiet keeps stderr clean; the report still holds the warning.
+        const Run quiet = run("band " + bunny + small + c.flags + " --quiet");
+        CHECK(quiet.code == 0);
+        CHECK(quiet.err.empty());
+        CHECK(nlohmann::json::parse(std::ifstream(json))["warnings"].size() >= 1);
+    }
+    // The exact model and the regression model have no β: no β warning.
+    r = run("band " + bunny + small + " --beta 3 --exact --quiet");
+    REQUIRE(r.code == 0);
+    for (const auto& w : nlohmann::json::parse(std::ifstream(json))["warnings"]) CHECK(w.get<std::string>().find("--beta") == std::string::npos);
 }

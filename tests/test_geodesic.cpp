@@ -131,3 +131,22 @@ TEST_CASE("geodesic: a target the march never reached gives a one-point path mar
     CHECK(p.points.size() == 1);
     CHECK(std::isinf(p.distance));
 }
+
+TEST_CASE("geodesic: absurd point counts and a march beyond the memory budget are refused before any work", "[geodesic]") {
+    const Band& band = test::sphereBand();
+    const Vec3d s(1.0, 0.0, 0.0);
+    const std::vector<Vec3d> many(kMaxGeodesicPoints + 1, s);
+    CHECK_THROWS_WITH(geodesicDistance(band, many), Catch::Contains("at most 1e+06 source points"));
+    CHECK_THROWS_AS(geodesicDistance(band, {s}, many), ParameterError);
+    GeodesicOptions tight;
+    tight.maxBytes = 1e3;
+    try {
+        geodesicDistance(band, {s}, {}, tight);
+        FAIL("no refusal");
+    } catch (const ParameterError& e) {
+        CHECK_THAT(e.what(), Catch::Contains("(GeodesicOptions::maxBytes)") && Catch::Contains("(BandOptions::voxelSize) of"));
+        CHECK(e.parameters() == std::vector<std::string>{"GeodesicOptions::maxBytes", "BandOptions::voxelSize"});
+    }
+    tight.maxBytes = double(band.size()) * kFastMarchingBytesPerVoxel * 1.01;
+    CHECK(geodesicDistance(band, {s}, {}, tight).march.accepted == band.size());
+}

@@ -9,6 +9,7 @@
 #include <map>
 
 #include "band_fixtures.h"
+#include "gpisvdb/core/errors.h"
 #include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/output/write_vdb.h"
 #include "helpers.h"
@@ -180,4 +181,44 @@ TEST_CASE("output: the Selling grids rebuild the Laplacian from the file alone",
             worst = std::max(worst, std::abs(lvFile[long(i)] - lvRef[acc.getValue(order[i])]));
         CHECK(worst <= (half ? 2e-3 : 1e-6) * lvRef.lpNorm<Eigen::Infinity>());
     }
+}
+
+TEST_CASE("output: writeVdb refuses active inf or NaN values, and values a half cannot hold, writing nothing", "[output]") {
+    const std::string path = (gpisvdb::test::scratchDir() / "output_nonfinite.vdb").string();
+    const auto make = [](float value) {
+        auto g = openvdb::FloatGrid::create(0.0f);
+        g->setName("f");
+        g->tree().setValue(openvdb::Coord(1, 2, 3), value);
+        g->tree().setValue(openvdb::Coord(0, 0, 0), 1.0f);
+        return g;
+    };
+    const auto makeVec = [](float value) {
+        auto g = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+        g->setName("v");
+        g->tree().setValue(openvdb::Coord(4, 5, 6), openvdb::Vec3s(0.0f, value, 0.0f));
+        return g;
+    };
+    openvdb::initialize();
+    for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()}) {
+        std::filesystem::remove(path);
+        CHECK_THROWS_WITH(gpisvdb::writeVdb({make(bad)}, path, {}), Catch::Contains("grid 'f': 1 active values (the first at voxel 1,2,3)"));
+        CHECK_THROWS_WITH(gpisvdb::writeVdb({makeVec(bad)}, path, {}), Catch::Contains("grid 'v'"));
+        CHECK_FALSE(std::filesystem::exists(path));
+    }
+    auto badBackground = make(1.0f);
+    badBackground->tree().root().setBackground(std::numeric_limits<float>::infinity(), true);
+    CHECK_THROWS_WITH(gpisvdb::writeVdb({badBackground}, path, {}), Catch::Contains("its background value"));
+    // 1e5 is a fine float but a half turns it into inf: refused with --half (naming the option), written without.
+    gpisvdb::VdbWriteOptions half;
+    half.halfFloat = true;
+    try {
+        gpisvdb::writeVdb({make(1e5f)}, path, {}, half);
+        FAIL("no refusal");
+    } catch (const gpisvdb::ParameterError& e) {
+        CHECK_THAT(e.what(), Catch::Contains("half-float range") && Catch::Contains("(VdbWriteOptions::halfFloat)"));
+    }
+    CHECK_FALSE(std::filesystem::exists(path));
+    gpisvdb::writeVdb({make(1e5f), makeVec(2.0f)}, path, {});
+    CHECK(std::filesystem::exists(path));
+    gpisvdb::writeVdb({make(6e4f)}, path, {}, half);
 }

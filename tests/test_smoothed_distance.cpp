@@ -1,5 +1,6 @@
 #include <catch2/catch.hpp>
 #include <tbb/global_control.h>
+#include <openvdb/tools/Interpolation.h>
 
 #include <random>
 
@@ -137,4 +138,59 @@ TEST_CASE("smoothed distance: bad alpha, grid sizes and empty bands are refused"
     o.gridVoxelSize = -1;
     CHECK_THROWS_AS(smoothedDistanceGrid(band, o), ParameterError);
     CHECK_THROWS_AS(SmoothedDistance(Band{}, 1.0), Error);
+}
+
+TEST_CASE("smoothed distance: increases along rays from the centre outside the band, and reads far beyond the box", "[smoothed_distance]") {
+    // Beyond the band's largest radius R every voxel x_j has x_j·u < |x| for x = |x| u, so d_α strictly increases
+    // along the ray: checked at every grid point on the 26 lattice rays from the centre (grid point k at H k, so
+    // those points lie exactly on the rays), out to the box's edge.
+    const Band& band = test::sphereBand();
+    double R = 0;
+    for (const openvdb::Coord& k : band.coord) R = std::max(R, band.voxelSize * Vec3d(k.x(), k.y(), k.z()).norm());
+    SmoothedDistanceOptions o;
+    o.alpha = 5;
+    o.gridVoxelSize = 0.15;
+    o.padding = 1.2;
+    const SmoothedDistanceResult r = smoothedDistanceGrid(band, o);
+    const openvdb::CoordBBox box = r.grid->evalActiveVoxelBoundingBox();
+    auto acc = r.grid->getConstAccessor();
+    float largest = -1e30f;
+    for (auto it = r.grid->cbeginValueOn(); it; ++it) largest = std::max(largest, *it);
+    std::size_t checked = 0, rays = 0;
+    for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) {
+                if (!dx && !dy && !dz) continue;
+                const Vec3d u(dx, dy, dz);
+                double previous = -1e300;
+                std::size_t onRay = 0;
+                for (int t = 1;; ++t) {
+                    const openvdb::Coord c(t * dx, t * dy, t * dz);
+                    if (!box.isInside(c)) break;
+                    if (t * o.gridVoxelSize * u.norm() <= R) continue;
+                    REQUIRE(acc.isValueOn(c));
+                    const double v = acc.getValue(c);
+                    INFO("ray " << dx << "," << dy << "," << dz << " at step " << t);
+                    CHECK(v > previous);
+                    previous = v;
+                    ++onRay;
+                }
+                checked += onRay;
+                rays += onRay >= 3 ? 1 : 0;
+            }
+    CHECK(rays == 26);
+    CHECK(checked >= 26 * 3);
+    // Beyond the box nothing was computed: the background reads far (above every computed value), never 0.
+    CHECK(r.background == Approx(r.grid->background()));
+    CHECK(r.grid->background() > largest);
+    CHECK(r.grid->background() > 0);
+    const double outside = (box.max().x() + 50) * o.gridVoxelSize;
+    for (const Vec3d& x : {Vec3d(outside, 0, 0), Vec3d(-outside, outside, 0), Vec3d(0, 0, 10 * outside)}) {
+        const openvdb::Vec3d xi = r.grid->transform().worldToIndex(openvdb::Vec3d(x.x(), x.y(), x.z()));
+        CHECK(openvdb::tools::BoxSampler::sample(r.grid->tree(), xi) > largest);
+    }
+    // Just outside the box, interpolated against the last computed layer: still above that layer's value.
+    const openvdb::Coord edge(box.max().x(), 0, 0);
+    const float atEdge = acc.getValue(edge);
+    CHECK(openvdb::tools::BoxSampler::sample(r.grid->tree(), openvdb::Vec3d(edge.x() + 0.5, 0, 0)) > atEdge);
 }

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <iostream>
 
 #include "gpisvdb/core/errors.h"
 
@@ -36,6 +37,15 @@ double physicalMemory() { return double(sysconf(_SC_PHYS_PAGES)) * double(syscon
 /// evaluations, the visited mask, then the band): measured ≈ 270 (bunny, 1.57 M evaluated voxels, peak RSS
 /// 422 MB); 400 leaves headroom.
 constexpr double kBuildBytesPerVoxel = 400;
+
+/// The most band voxels any command accepts, whatever --max-memory says: fast marching handles 5.4e8, and at
+/// ≈ 400 bytes per voxel while building, 5e8 voxels already need 200 GB.
+constexpr double kMaxBandVoxels = 5e8;
+
+/// Documented accuracy limits (docs/band.md#warnings).
+constexpr double kDocumentedBeta = 6;           // docs/model.md
+constexpr int kDocumentedQmc = 512;             // docs/band.md, μ and T
+constexpr double kRegularisedFraction = 0.01;   // more than 1 % of the voxels regularised
 
 }  // namespace
 
@@ -75,7 +85,7 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     ro.qmcSamples = flags.band.qmcSamples;
     ro.resolutionScale = flags.resolutionScale;
     ro.maxAnisotropy = flags.band.maxAnisotropy;
-    job.resolution = chooseResolution(*job.model.model, job.model.input.samples, ro);
+    job.resolution = chooseResolution(*job.model.model, job.model.input.samples, ro, progress.interruptOnly());
     job.options = flags.band;
     job.options.iso = iso;
     if (!(job.options.voxelSize > 0)) job.options.voxelSize = job.resolution.h;
@@ -87,6 +97,10 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     const double eta = std::min(flags.band.etaRelative, 0.5);
     const double thickness = 2.0 * job.resolution.muWidth * std::sqrt(2.0 * std::log(1.0 / eta)) + 4.0 * h;
     const double estimate = area * thickness / (h * h * h);
+    if (!(estimate <= kMaxBandVoxels))  // absurd whatever the memory: refused before the model is evaluated
+        throw ParameterError("the band would need about " + numberText(estimate) + " voxels at voxel size " + numberText(h) +
+                             ", more than the " + numberText(kMaxBandVoxels) + " a band can hold: use --voxel-size " +
+                             numberText(h * std::cbrt(estimate / kMaxBandVoxels) * 1.1) + " or larger");
     if (estimate * kBuildBytesPerVoxel > job.maxMemory) {
         const double suggest = h * std::cbrt(estimate * kBuildBytesPerVoxel / job.maxMemory) * 1.1;
         throw ParameterError("the band would need about " + numberText(estimate) + " voxels (" +
@@ -98,7 +112,28 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     const auto tBand = Clock::now();
     job.result = buildBand(*job.model.model, job.model.input.samples, job.options, progress);
     job.secondsBand = since(tBand);
+    job.warnings = bandWarnings(job, flags);
+    if (!flags.model.quiet)
+        for (const std::string& w : job.warnings) std::cerr << "warning: " << w << "\n";
     return job;
+}
+
+std::vector<std::string> bandWarnings(const BandJob& job, const BandFlags& flags) {
+    std::vector<std::string> w;
+    // docs/model.md: β = 6 keeps every model number within 1e-3 of its scale on all test inputs; β = 5 missed it.
+    if (flags.model.model == "winding" && !flags.model.exact && flags.model.beta < kDocumentedBeta)
+        w.push_back("the Barnes-Hut accuracy --beta " + numberText(flags.model.beta) + " is below " + numberText(kDocumentedBeta) +
+                    ", the smallest documented to keep the model within 1e-3 of the direct sum: mu and T may err more");
+    // docs/band.md: S = 512 is within 1 % of S = 8192 near the surface.
+    if (job.options.qmcSamples < kDocumentedQmc)
+        w.push_back("--qmc " + std::to_string(job.options.qmcSamples) + " is below " + std::to_string(kDocumentedQmc) +
+                    ", the smallest QMC count documented within 1% of the converged mu and T");
+    const std::size_t n = job.result.band.size(), reg = job.result.stats.regularised;
+    if (n && double(reg) > kRegularisedFraction * double(n))
+        w.push_back(std::to_string(reg) + " of " + std::to_string(n) + " voxels (" + numberText(100.0 * double(reg) / double(n)) +
+                    "%) had T regularised by the anisotropy cap --max-anisotropy " + numberText(job.options.maxAnisotropy) +
+                    ": their diffusion is more isotropic than the model's; a larger cap changes fewer");
+    return w;
 }
 
 BandCommand startBandCommand(const std::string& input, const std::string& output, const BandFlags& flags) {
@@ -186,6 +221,7 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
                   {"max_stencil_l1", st.maxStencilL1}, {"max_stencil_l1_at_samples", job.resolution.maxStencilL1},
                   {"evaluated_voxels", st.evaluated}, {"bfs_levels", st.levels},
                   {"regularised_voxels", st.regularised}, {"median_mu_at_samples", st.medianSampleMu}}},
+        {"warnings", job.warnings},
         {"memory", {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0}, {"band_bytes_per_voxel", band.bytesPerVoxel()}}},
     };
 }

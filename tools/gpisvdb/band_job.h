@@ -33,7 +33,14 @@ struct BandJob {
     BandResult result;
     double maxMemory = 0;
     double secondsModel = 0, secondsBand = 0;
+    /// Settings that change the result beyond its documented error (docs/band.md#warnings): the report's
+    /// `warnings`, and one stderr line each unless --quiet.
+    std::vector<std::string> warnings;
 };
+
+/// The warnings for a built band: a Barnes–Hut β below 6, a QMC count below 512, more than 1 % of the voxels
+/// with T regularised by the anisotropy cap.
+std::vector<std::string> bandWarnings(const BandJob& job, const BandFlags& flags);
 
 /// Model, resolution, memory check, band: the first half of every band command.
 BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress);

@@ -200,7 +200,7 @@ void comparisonPicture(const std::vector<SigmaRun>& runs, const DemoArgs& a, con
     o.caption = "gpisvdb demo: torus with the slab x > 0, |y| < 0.3 cut away; columns: sigma = ";
     for (std::size_t i = 0; i < runs.size(); ++i) o.caption += (i ? ", " : "") + sigmaText(runs[i].sigmaRel);
     o.caption += " x l; voxel size " + sigmaText(a.voxelSize);
-    renderPng(panels, o, path);
+    renderPng(panels, o, path, makeProgress(true));
 }
 
 void inputPicture(const TriangleSoup& soup, const DemoArgs& a, const std::string& path) {
@@ -214,7 +214,7 @@ void inputPicture(const TriangleSoup& soup, const DemoArgs& a, const std::string
     RenderOptions o;
     o.panelWidth = a.pictureWidth;
     o.panelHeight = a.pictureWidth * 5 / 6;
-    renderPng({p}, o, path);
+    renderPng({p}, o, path, makeProgress(true));
 }
 
 void writeSummary(const std::vector<SigmaRun>& runs, const DemoArgs& a, double ell, double seconds, const std::string& path) {

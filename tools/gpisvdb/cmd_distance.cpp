@@ -1,5 +1,6 @@
 // gpisvdb distance INPUT --alpha A -o OUT.vdb: the smoothed distance to the GPIS (paper Eq. 31, Fig. 11) on a dense
 // grid, with an optional level surface.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iostream>
@@ -70,6 +71,8 @@ void addDistance(CLI::App& app, Action& action) {
                 auto shifted = r.grid->deepCopy();
                 shifted->setName("smoothed_distance_level");
                 for (auto it = shifted->beginValueOn(); it; ++it) it.setValue(float(*it - a->level));
+                // Outside the box: "far", i.e. outside the shell (positive), as in smoothed_distance.
+                shifted->tree().root().setBackground(float(std::max(r.background - a->level, r.background)), true);
                 shifted->setGridClass(openvdb::GRID_LEVEL_SET);
                 grids.push_back(shifted);
                 if (meshOut) mesh = isoSurface(*r.grid, a->level);
@@ -78,6 +81,7 @@ void addDistance(CLI::App& app, Action& action) {
             meta.insertMeta("distance_alpha", openvdb::DoubleMetadata(a->distance.alpha));
             meta.insertMeta("distance_voxel_size", openvdb::DoubleMetadata(r.voxelSize));
             meta.insertMeta("distance_tolerance", openvdb::DoubleMetadata(r.tolerance));
+            meta.insertMeta("distance_background", openvdb::DoubleMetadata(r.background));
             if (!std::isnan(a->level)) meta.insertMeta("distance_level", openvdb::DoubleMetadata(a->level));
             writeVdb(grids, run.out->tempPath(), meta, a->flags.vdb);
             if (meshOut) writeMesh(mesh, meshOut->tempPath(), meshFormatOf(a->mesh));
@@ -89,7 +93,7 @@ void addDistance(CLI::App& app, Action& action) {
                 const openvdb::CoordBBox box = r.grid->evalActiveVoxelBoundingBox();
                 report["distance"] = {{"alpha", a->distance.alpha}, {"voxel_size", r.voxelSize}, {"points", r.points},
                                       {"grid_dims", {box.dim().x(), box.dim().y(), box.dim().z()}},
-                                      {"tolerance", r.tolerance}, {"brute_force", a->bruteForce},
+                                      {"tolerance", r.tolerance}, {"brute_force", a->bruteForce}, {"background", r.background},
                                       {"mean_terms_per_point", r.meanTerms}, {"band_voxels", band.size()}};
                 if (!std::isnan(a->level)) report["distance"]["level"] = a->level;
                 if (meshOut) report["distance"]["mesh_triangles"] = mesh.triangles.size();

@@ -17,6 +17,9 @@ namespace gpisvdb::cli {
 namespace {
 
 std::vector<Vec3d> points(const std::vector<std::vector<double>>& flags, const char* name) {
+    if (flags.size() > kMaxGeodesicPoints)
+        throw ParameterError(std::string(name) + ": at most " + numberText(double(kMaxGeodesicPoints)) + " points, got " +
+                             std::to_string(flags.size()));
     std::vector<Vec3d> p;
     for (const auto& v : flags) {
         if (v.size() != 3 || !Vec3d(v[0], v[1], v[2]).allFinite())
@@ -73,6 +76,7 @@ void addGeodesic(CLI::App& app, Action& action) {
             const auto tSolve = Clock::now();
             GeodesicOptions options;
             options.stopAtTargets = a->stopAtTargets;
+            options.maxBytes = std::max(1.0, job.maxMemory - double(band.size()) * band.bytesPerVoxel());
             const GeodesicResult g = geodesicDistance(band, sources, targets, options, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             if (g.march.accepted == g.sourceIndex.size() && band.size() > g.sourceIndex.size() && !a->stopAtTargets)

@@ -19,26 +19,8 @@ namespace {
 /// A Vec3 grid of a .vdb ("FILE.vdb" takes its only vector grid; "FILE.vdb:NAME" the grid NAME), sampled
 /// trilinearly in world space at the band's voxel centres; 0 where the grid is inactive.
 std::vector<float> readField(const std::string& spec, const Band& band) {
-    std::string path = spec, name;
-    const auto colon = spec.rfind(':');
-    if (colon != std::string::npos && colon + 1 < spec.size() && spec.find(".vdb", colon) == std::string::npos) {
-        path = spec.substr(0, colon);
-        name = spec.substr(colon + 1);
-    }
-    const openvdb::GridPtrVecPtr grids = VdbFile::read(path).grids;
-    openvdb::Vec3SGrid::Ptr field;
-    std::string names;
-    int vectors = 0;
-    for (const auto& g : *grids) {
-        auto v = openvdb::gridPtrCast<openvdb::Vec3SGrid>(g);
-        if (!v) continue;
-        ++vectors;
-        names += (names.empty() ? "" : ", ") + g->getName();
-        if (name.empty() ? !field : g->getName() == name) field = v;
-    }
-    if (!name.empty() && !field) throw InputError(path + ": no vector grid named '" + name + "' (vector grids: " + (names.empty() ? "none" : names) + ")");
-    if (!field) throw InputError(path + ": holds no float vector (Vec3s) grid");
-    if (name.empty() && vectors > 1) throw InputError(path + ": holds several vector grids (" + names + "): name one as " + path + ":NAME");
+    const auto [path, name] = VdbFile::splitSpec(spec);
+    const openvdb::Vec3SGrid::Ptr field = VdbFile::read(path).vectorGrid(name);
     std::vector<float> V(3 * band.size());
     const openvdb::tools::GridSampler<openvdb::Vec3SGrid, openvdb::tools::BoxSampler> sampler(*field);
     for (std::size_t i = 0; i < band.size(); ++i) {

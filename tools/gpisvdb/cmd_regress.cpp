@@ -74,7 +74,7 @@ void addRegress(CLI::App& app, Action& action) {
             const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
             const auto tRegress = Clock::now();
             run.progress.update("regression", 0);
-            const RegressionResult r = gpRegression(band, e, points, ro);
+            const RegressionResult r = gpRegression(band, e, points, ro, run.progress.interruptOnly());
             run.progress.update("regression", 1);
             const double secondsRegress = std::chrono::duration<double>(Clock::now() - tRegress).count();
             openvdb::MetaMap meta = bandMetadata(job, a->flags);

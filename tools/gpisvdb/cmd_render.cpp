@@ -1,5 +1,7 @@
 // gpisvdb render FILE.vdb --grid NAME -o OUT.png: a picture of a grid on the mean surface (and on a slice), with a
 // colour bar and shortest paths, rendered offscreen by VTK.
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -14,6 +16,12 @@
 #include "vdb_file.h"
 
 namespace gpisvdb::cli {
+
+namespace {
+constexpr double kMinPanelPixels = 64, kMaxPanelPixels = 8192;
+/// Offscreen rendering: 8 multisamples of RGBA and depth (64 bytes), the resolved window and the PNG rows.
+constexpr double kRenderBytesPerPixel = 80;
+}  // namespace
 
 void addRender(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("render", "a PNG picture of a grid on the mean surface (and a slice), with a colour bar");
@@ -62,6 +70,11 @@ void addRender(CLI::App& app, Action& action) {
             for (double v : a->view)
                 if (!std::isfinite(v)) throw ParameterError("--view needs finite angles");
             if (!std::isnan(a->iso) && !std::isfinite(a->iso)) throw ParameterError("--iso must be finite");
+            // Before any attempt (and before the int conversion): a 1e6 x 1e6 request is refused here.
+            for (double v : a->size)
+                if (!(v >= kMinPanelPixels && v <= kMaxPanelPixels) || v != std::floor(v))
+                    throw ParameterError("--size: picture panels must be whole numbers of 64 to 8192 pixels wide and high, got " +
+                                         numberText(a->size[0]) + "," + numberText(a->size[1]));
             if (std::filesystem::path(a->output).extension() != ".png") throw ParameterError(a->output + ": the picture is written as .png");
             const VdbFile file = VdbFile::read(a->input);
             const auto grid = file.floatGrid(a->grid);
@@ -101,10 +114,21 @@ void addRender(CLI::App& app, Action& action) {
                 if (lo < hi)
                     for (RenderPanel& p : panels) p.range = {lo, hi};
             }
+            // === Memory: the offscreen window (8 samples of colour and depth per pixel) and the picture, per panel
+            const double pixels = a->size[0] * a->size[1] * double(panels.size());
+            const double budget = 0.5 * double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+            if (pixels * kRenderBytesPerPixel > budget) {
+                const double scale = std::sqrt(budget / (pixels * kRenderBytesPerPixel)) * 0.95;
+                throw ParameterError("--size " + numberText(a->size[0]) + "," + numberText(a->size[1]) + " with " +
+                                     std::to_string(panels.size()) + " panels needs about " +
+                                     numberText(pixels * kRenderBytesPerPixel / 1e9) + " GB, more than half the RAM (" +
+                                     numberText(budget / 1e9) + " GB): use --size " + numberText(std::floor(a->size[0] * scale)) +
+                                     "," + numberText(std::floor(a->size[1] * scale)) + " or smaller");
+            }
             RenderOptions o;
             o.azimuth = a->view[0], o.elevation = a->view[1];
             o.panelWidth = int(a->size[0]), o.panelHeight = int(a->size[1]);
-            renderPng(panels, o, out.tempPath());
+            renderPng(panels, o, out.tempPath(), makeProgress(true));
             out.commit();
             if (!a->quiet) std::cerr << "render: " << a->grid << " -> " << a->output << "\n";
         };

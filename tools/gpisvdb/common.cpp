@@ -4,12 +4,18 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <mutex>
 #include <random>
+#include <set>
+#include <vector>
+#include <thread>
 #include <tbb/global_control.h>
 
 #include "gpisvdb/core/errors.h"
@@ -20,8 +26,75 @@ namespace gpisvdb::cli {
 
 namespace {
 std::atomic<bool> gInterrupted{false};
-extern "C" void onSigint(int) { gInterrupted = true; }
+std::atomic<int> gSignal{0};  // the first SIGINT or SIGTERM
+int gWakeWrite = -1;          // the watchdog's pipe: written by the handler (write is async-signal-safe)
+
+extern "C" void onSignal(int sig) {
+    int none = 0;
+    gSignal.compare_exchange_strong(none, sig);
+    gInterrupted = true;
+    if (gWakeWrite >= 0) {
+        const char c = 1;
+        [[maybe_unused]] const ssize_t ignored = ::write(gWakeWrite, &c, 1);
+    }
+}
+
+/// The temporaries of the AtomicOutput/AtomicDirectory objects alive now (leaked: the watchdog may read it while
+/// static destructors run).
+struct Temporaries {
+    std::mutex mutex;
+    std::set<std::string> files, directories;
+    // Outputs this run already renamed into place: a command with several outputs (a .vdb, then its report)
+    // interrupted between two commits takes the first back, so that "no output written" stays true.
+    std::vector<std::string> committed;
+};
+
+/// Removes the temporaries and the outputs committed so far; the caller holds the mutex.
+void removeOutputsLocked(Temporaries& t) {
+    std::error_code ec;
+    for (const std::string& f : t.files) std::filesystem::remove(f, ec);
+    for (const std::string& d : t.directories) std::filesystem::remove_all(d, ec);
+    for (const std::string& f : t.committed) std::filesystem::remove(f, ec);
+}
+Temporaries& temporaries() {
+    static Temporaries* t = new Temporaries;
+    return *t;
+}
+void registerTemporary(const std::string& path, bool directory) {
+    Temporaries& t = temporaries();
+    std::lock_guard<std::mutex> lock(t.mutex);
+    (directory ? t.directories : t.files).insert(path);
+}
+void unregisterTemporary(const std::string& path, bool directory) {
+    Temporaries& t = temporaries();
+    std::lock_guard<std::mutex> lock(t.mutex);
+    (directory ? t.directories : t.files).erase(path);
+}
+
+/// After a signal the work stops by itself within a few hundred milliseconds (the engine polls); a step that does
+/// not poll (a CHOLMOD factorization, a VTK render, a large file write) would keep the user waiting, so past the
+/// grace period this thread removes the temporaries and ends the process with the same exit code.
+void watchdog(int wakeRead) {
+    char c;
+    while (::read(wakeRead, &c, 1) < 0 && errno == EINTR) {
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(kInterruptGraceMs));
+    Temporaries& t = temporaries();
+    t.mutex.lock();  // held until _exit: no output can be registered, committed or left behind meanwhile
+    removeOutputsLocked(t);
+    const char message[] = "gpisvdb: interrupted, no output written (stopped in a step that does not poll)\n";
+    [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message, sizeof(message) - 1);
+    ::_exit(128 + gSignal.load());
+}
 }  // namespace
+
+void removeCommittedOutputs() {
+    Temporaries& t = temporaries();
+    std::lock_guard<std::mutex> lock(t.mutex);
+    std::error_code ec;
+    for (const std::string& f : t.committed) std::filesystem::remove(f, ec);
+    t.committed.clear();
+}
 
 std::string& commandLine() {
     static std::string line;
@@ -29,10 +102,16 @@ std::string& commandLine() {
 }
 
 void installInterruptHandler() {
-    std::signal(SIGINT, onSigint);
-    std::signal(SIGTERM, onSigint);
+    int fds[2];
+    if (::pipe(fds) == 0) {
+        gWakeWrite = fds[1];
+        std::thread(watchdog, fds[0]).detach();
+    }
+    std::signal(SIGINT, onSignal);
+    std::signal(SIGTERM, onSignal);
 }
 bool interruptRequested() { return gInterrupted; }
+int interruptSignal() { return gSignal; }
 
 void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
     app.add_option("--sigma", f.sigmaRel, "noise std σ of vertices/points, relative to the length scale ℓ (> 0)")
@@ -89,6 +168,8 @@ std::string errorMessage(const Error& error) {
         {"SmoothedDistanceOptions::padding", "--padding"},
         {"SmoothedDistanceOptions::tolerance", "--distance-tolerance"},
         {"SmoothedDistanceOptions::maxPoints", "--max-memory"},
+        {"GeodesicOptions::maxBytes", "--max-memory"},
+        {"VdbWriteOptions::halfFloat", "--half"},
         {"RenderPanel::logScale", "--log"},
         {"RenderPanel::slice", "--slice"},
     };
@@ -155,20 +236,28 @@ AtomicOutput::AtomicOutput(std::string path) : path_(std::move(path)) {
     if (!fs::is_directory(dir, ec)) throw OutputError(path_ + ": the directory " + dir.string() + " does not exist");
     std::random_device rd;
     temp_ = (dir / (target.filename().string() + ".tmp-" + std::to_string(rd() % 1000000))).string();
+    registerTemporary(temp_, false);
     std::ofstream probe(temp_);
-    if (!probe) throw OutputError(path_ + ": cannot write in " + dir.string());
+    if (!probe) {
+        unregisterTemporary(temp_, false);
+        throw OutputError(path_ + ": cannot write in " + dir.string());
+    }
 }
 
 AtomicOutput::~AtomicOutput() {
     if (!committed_) std::remove(temp_.c_str());
+    unregisterTemporary(temp_, false);
 }
 
 void AtomicOutput::commit() {
     if (interruptRequested()) throw Cancelled();  // a Ctrl-C during a step that does not poll still leaves nothing
     std::error_code ec;
+    std::lock_guard<std::mutex> lock(temporaries().mutex);  // not while the watchdog removes the temporaries
+    if (interruptRequested()) throw Cancelled();
     std::filesystem::rename(temp_, path_, ec);
     if (ec) throw OutputError(path_ + ": cannot rename the finished output into place: " + ec.message());
     committed_ = true;
+    temporaries().committed.push_back(path_);
 }
 
 AtomicDirectory::AtomicDirectory(std::string path) : path_(std::move(path)) {
@@ -181,19 +270,26 @@ AtomicDirectory::AtomicDirectory(std::string path) : path_(std::move(path)) {
     if (!fs::is_directory(parent, ec)) throw OutputError(path_ + ": the directory " + parent.string() + " does not exist");
     std::random_device rd;
     temp_ = (parent / ("." + target.filename().string() + ".tmp-" + std::to_string(rd() % 1000000))).string();
-    if (!fs::create_directory(temp_, ec) || ec) throw OutputError(path_ + ": cannot write in " + parent.string());
+    registerTemporary(temp_, true);
+    if (!fs::create_directory(temp_, ec) || ec) {
+        unregisterTemporary(temp_, true);
+        throw OutputError(path_ + ": cannot write in " + parent.string());
+    }
     path_ = target.string();
 }
 
 AtomicDirectory::~AtomicDirectory() {
     std::error_code ec;
     if (!committed_) std::filesystem::remove_all(temp_, ec);
+    unregisterTemporary(temp_, true);
 }
 
 void AtomicDirectory::commit() {
     if (interruptRequested()) throw Cancelled();
     namespace fs = std::filesystem;
     std::error_code ec;
+    std::lock_guard<std::mutex> lock(temporaries().mutex);  // not while the watchdog removes the temporaries
+    if (interruptRequested()) throw Cancelled();
     if (!fs::exists(path_, ec)) {
         fs::rename(temp_, path_, ec);
         if (ec) throw OutputError(path_ + ": cannot move the finished outputs into place: " + ec.message());

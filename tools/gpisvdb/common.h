@@ -52,6 +52,10 @@ private:
     bool committed_ = false;
 };
 
+/// After an interrupt or an error: removes the files earlier AtomicOutput::commit() calls of this run put in place
+/// (a command stopped between its .vdb and its report leaves neither).
+void removeCommittedOutputs();
+
 /// A directory of outputs written under a temporary name beside the target and moved into it on commit()
 /// (each entry renamed; an existing target keeps its other files); removed if never committed.
 class AtomicDirectory {
@@ -77,7 +81,12 @@ std::string& commandLine();
 std::string errorMessage(const Error& error);
 
 /// Installs the Ctrl-C handler (sets a flag the Progress polls).
+/// SIGINT and SIGTERM set the flag; a watchdog thread ends the process kInterruptGraceMs after the signal if the
+/// work has not stopped by then (removing every AtomicOutput/AtomicDirectory temporary), with 128 + the signal.
 void installInterruptHandler();
 bool interruptRequested();
+/// The first signal received (SIGINT or SIGTERM), 0 if none: main returns 128 + it.
+int interruptSignal();
+constexpr int kInterruptGraceMs = 500;
 
 }  // namespace gpisvdb::cli

@@ -1,5 +1,7 @@
 // gpisvdb: uncertainty-aware geometry processing on Gaussian Process Implicit Surfaces.
-// Exit codes: 0 success, 1 error (input, parameter, output), 2 usage error, 130 interrupted.
+// Exit codes: 0 success, 1 error (input, parameter, output), 2 usage error, 130 interrupted (SIGINT, Ctrl-C),
+// 143 terminated (SIGTERM); either way within a second, leaving no output.
+#include <csignal>
 #include <iostream>
 
 #include "commands.h"
@@ -12,7 +14,8 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", std::string("gpisvdb ") + GPISVDB_VERSION);
     app.require_subcommand(1);
     app.footer("Run 'gpisvdb COMMAND --help' for the flags and examples of each command.\n"
-               "Exit codes: 0 success, 1 error (one line on stderr, no output left behind), 2 usage error, 130 interrupted.\n"
+               "Exit codes: 0 success, 1 error (one line on stderr, no output left behind), 2 usage error,\n"
+               "130 interrupted (SIGINT, Ctrl-C), 143 terminated (SIGTERM): stops within a second, no output left behind.\n"
                "Example:\n  gpisvdb demo -o demo-output");
     cli::Action action;
     cli::addInfo(app, action);
@@ -41,12 +44,15 @@ int main(int argc, char** argv) {
     try {
         action();
     } catch (const Cancelled&) {
+        cli::removeCommittedOutputs();
         std::cerr << "gpisvdb: interrupted, no output written\n";
-        return 130;
+        return 128 + (cli::interruptSignal() ? cli::interruptSignal() : SIGINT);
     } catch (const Error& e) {
+        cli::removeCommittedOutputs();  // all of a command's outputs or none
         std::cerr << "gpisvdb: error: " << cli::errorMessage(e) << "\n";
         return 1;
     } catch (const std::exception& e) {
+        cli::removeCommittedOutputs();
         std::cerr << "gpisvdb: internal error: " << e.what() << "\n";
         return 1;
     }

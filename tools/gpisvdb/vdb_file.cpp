@@ -20,6 +20,8 @@ VdbFile VdbFile::read(const std::string& path) {
         file.close();
     } catch (const openvdb::Exception& e) {
         throw InputError(path + ": cannot be read as an OpenVDB file (" + e.what() + ")");
+    } catch (const std::exception& e) {  // a malformed file: lengths OpenVDB allocates (bad_alloc, length_error), I/O
+        throw InputError(path + ": cannot be read as an OpenVDB file (" + e.what() + ")");
     }
     return f;
 }
@@ -40,6 +42,30 @@ openvdb::FloatGrid::Ptr VdbFile::floatGrid(const std::string& name) const {
     auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(grid(name));
     if (!g) throw InputError(path + ": grid '" + name + "' is not a float grid");
     return g;
+}
+
+openvdb::Vec3SGrid::Ptr VdbFile::vectorGrid(const std::string& name) const {
+    openvdb::Vec3SGrid::Ptr field;
+    std::string vectors;
+    int count = 0;
+    for (const auto& g : *grids) {
+        auto v = openvdb::gridPtrCast<openvdb::Vec3SGrid>(g);
+        if (!v) continue;
+        ++count;
+        vectors += (vectors.empty() ? "" : ", ") + g->getName();
+        if (name.empty() ? !field : g->getName() == name) field = v;
+    }
+    if (!name.empty() && !field) throw InputError(path + ": no vector grid named '" + name + "' (vector grids: " + (vectors.empty() ? "none" : vectors) + ")");
+    if (!field) throw InputError(path + ": holds no float vector (Vec3s) grid");
+    if (name.empty() && count > 1) throw InputError(path + ": holds several vector grids (" + vectors + "): name one as " + path + ":NAME");
+    return field;
+}
+
+std::pair<std::string, std::string> VdbFile::splitSpec(const std::string& spec) {
+    const auto colon = spec.rfind(':');
+    if (colon != std::string::npos && colon + 1 < spec.size() && spec.find(".vdb", colon) == std::string::npos)
+        return {spec.substr(0, colon), spec.substr(colon + 1)};
+    return {spec, std::string()};
 }
 
 double VdbFile::iso() const {

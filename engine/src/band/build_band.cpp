@@ -40,6 +40,7 @@ std::vector<BandVoxel> evaluateVoxels(const GpisModel& model, const std::vector<
     const std::vector<ValueGradient> z = model.evaluate(xs, progress);
     std::vector<BandVoxel> out(coords.size());
     tbb::parallel_for(std::size_t(0), coords.size(), [&](std::size_t i) {
+        progress.checkInterruptAt(i);
         const SurfaceDensity d = kacRice(z[i], iso, rule);
         const double g = d.meanGradient.norm();
         out[i] = {coords[i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
@@ -80,8 +81,9 @@ void checkBudget(std::size_t evaluated, const BandOptions& o, double h) {
                              {"BandOptions::maxVoxels", "BandOptions::voxelSize"});
 }
 
-BandResult finish(std::vector<BandVoxel>&& accepted, const BandOptions& o, const BandStats& stats) {
-    BandResult r = bandFromVoxels(std::move(accepted), o.voxelSize, o.maxAnisotropy);
+BandResult finish(std::vector<BandVoxel>&& accepted, const BandOptions& o, const BandStats& stats, const Progress& progress) {
+    progress.checkInterrupt();
+    BandResult r = bandFromVoxels(std::move(accepted), o.voxelSize, o.maxAnisotropy, progress.interruptOnly());
     const BandStats own = r.stats;
     r.stats = stats;
     r.stats.regularised = own.regularised;
@@ -120,7 +122,8 @@ struct Rounds {
         progress.checkInterrupt();
         stats.evaluated += coords.size();
         checkBudget(stats.evaluated, options, options.voxelSize);
-        std::vector<BandVoxel> values = evaluateVoxels(model, coords, options.voxelSize, options.iso, rule, {});
+        std::vector<BandVoxel> values = evaluateVoxels(model, coords, options.voxelSize, options.iso, rule,
+                                                              progress.interruptOnly());
         if (stats.levels++ == 0) eta = absoluteEta(values, sampleVox, options.etaRelative, stats);
         return values;
     }
@@ -128,7 +131,7 @@ struct Rounds {
 
 }  // namespace
 
-BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy) {
+BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy, const Progress& progress) {
     if (!(voxelSize > 0) || !std::isfinite(voxelSize))
         throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0", {"BandOptions::voxelSize"});
     if (!(maxAnisotropy >= 1))
@@ -171,6 +174,7 @@ BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, doubl
     b.stencil.resize(n);
     std::vector<int> regularised(n, 0);
     tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+        progress.checkInterruptAt(i, 4096);
         const BandVoxel& v = voxels[source[i]];
         b.coord[i] = v.coord;
         b.mu[i] = float(v.mu);
@@ -229,7 +233,7 @@ BandResult buildBand(const GpisModel& model, const Samples& samples, const BandO
         progress.update("band", 1.0 - 1.0 / (1.0 + 0.1 * rounds.stats.levels));
     }
     progress.update("band", 1.0);
-    return finish(std::move(accepted), o, rounds.stats);
+    return finish(std::move(accepted), o, rounds.stats, progress);
 }
 
 BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
@@ -259,7 +263,7 @@ BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOp
         const Coord dim = box.dim();
         box.expand(std::max({2, dim.x() / 8, dim.y() / 8, dim.z() / 8}));
     }
-    return finish(std::move(all), o, rounds.stats);
+    return finish(std::move(all), o, rounds.stats, progress);
 }
 
 }  // namespace gpisvdb

@@ -1,11 +1,13 @@
 // PLY (ascii and binary, either endianness). Parsed here because VTK's reader keeps only a fixed set of
 // vertex properties and we need arbitrary ones (per-point `sigma`, `area`).
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <map>
 #include <sstream>
 
+#include "gpisvdb/core/errors.h"
 #include "readers.h"
 
 namespace gpisvdb::detail {
@@ -119,7 +121,11 @@ InputData readPly(const std::string& path) {
             long long count = -1;
             ls >> e.name >> count;
             if (count < 0) fail(path, ln, "invalid element count");
+            for (const Element& other : elements)
+                if (other.name == e.name && (e.name == "vertex" || e.name == "face"))
+                    fail(path, ln, "a second '" + e.name + "' element");
             e.count = std::size_t(count);
+            if (e.name == "vertex" || e.name == "face") checkSampleCount(path, e.count, e.name + " elements declared");
             elements.push_back(e);
         } else if (kw == "property") {
             if (elements.empty()) fail(path, ln, "a property before any element");
@@ -141,12 +147,14 @@ InputData readPly(const std::string& path) {
         }
     }
     if (format < 0) fail(path, 0, "the header has no 'format' line");
+    for (const Element& e : elements)  // such an element reads nothing: a huge count would loop for ever
+        if (e.count > 0 && e.props.empty()) fail(path, 0, "element '" + e.name + "' has no properties");
 
     // === Body
     Body body(bytes, bodyStart, format, path);
     std::vector<std::vector<double>> vertexProps;  // per vertex, per scalar property
     std::map<std::string, int> vertexIndex;
-    std::vector<std::vector<int>> faces;
+    std::vector<std::vector<double>> faces;
     for (const Element& e : elements) {
         const bool isVertex = e.name == "vertex", isFace = e.name == "face";
         if (isVertex)
@@ -160,9 +168,9 @@ InputData readPly(const std::string& path) {
                     continue;
                 }
                 const double n = body.read(p.countType);
-                if (n < 0 || n > 1e6) fail(path, 0, "invalid list length in element '" + e.name + "'");
-                std::vector<int> list(static_cast<std::size_t>(n));
-                for (auto& v : list) v = int(body.read(p.type));
+                if (!(n >= 0 && n <= 1e6) || n != std::floor(n)) fail(path, 0, "invalid list length in element '" + e.name + "'");
+                std::vector<double> list(static_cast<std::size_t>(n));  // doubles: checked before any cast to int
+                for (auto& v : list) v = body.read(p.type);
                 if (isFace && (p.name == "vertex_indices" || p.name == "vertex_index")) faces.push_back(std::move(list));
             }
             if (isVertex) vertexProps.push_back(std::move(scalars));
@@ -182,9 +190,13 @@ InputData readPly(const std::string& path) {
         const long nv = long(data.soup->vertices.size());
         for (const auto& f : faces) {
             if (f.size() < 3) fail(path, 0, "a face needs at least 3 corners");
-            for (int c : f)
-                if (c < 0 || c >= nv) fail(path, 0, "face index " + std::to_string(c) + " is out of range (the file has " + std::to_string(nv) + " vertices)");
-            addPolygon(data, f);
+            std::vector<int> corners;
+            for (double c : f) {
+                if (!(c >= 0 && c < double(nv))) fail(path, 0, "face index " + numberText(c) + " is out of range (the file has " + std::to_string(nv) + " vertices)");
+                if (c != std::floor(c)) fail(path, 0, "face index " + numberText(c) + " is not an integer");
+                corners.push_back(int(c));
+            }
+            addPolygon(data, corners);
         }
         return data;
     }

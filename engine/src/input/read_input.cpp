@@ -55,6 +55,12 @@ void checkFinite(const std::string& path, const std::vector<Vec3d>& points, cons
         if (!points[i].allFinite()) fail(path, 0, std::string("non-finite ") + what + " at index " + std::to_string(i));
 }
 
+void checkSampleCount(const std::string& path, std::size_t count, const std::string& what) {
+    if (count > kMaxInputSamples)
+        throw InputError(path + ": " + std::to_string(count) + " " + what + ", more than the " + numberText(double(kMaxInputSamples)) +
+                         " samples an input may hold: decimate or subsample it first");
+}
+
 }  // namespace detail
 
 InputData readInput(const std::string& path) {
@@ -75,6 +81,8 @@ InputData readInput(const std::string& path) {
         throw InputError(path + ": unknown extension '" + ext +
                          "' (meshes: .obj .off .ply .stl .vtp; oriented clouds: .xyz .ply .vtp)");
     data.path = path;
+    detail::checkSampleCount(path, data.soup ? data.soup->triangles.size() : data.cloud ? data.cloud->positions.size() : 0,
+                             data.soup ? "triangles" : "points");
     if (data.soup) {
         if (data.soup->triangles.empty()) throw InputError(path + ": the mesh has no faces");
         detail::checkFinite(path, data.soup->vertices, "vertex coordinate");
@@ -92,6 +100,8 @@ InputData readInput(const std::string& path) {
 
 InputSamples makeSamples(const InputData& input, const NoiseOptions& options) {
     InputSamples out;
+    detail::checkSampleCount(input.path, input.soup ? input.soup->triangles.size() : input.cloud ? input.cloud->positions.size() : 0,
+                             input.soup ? "triangles" : "points");
     if (input.soup) {
         SoupSamples s = soupSamples(*input.soup, {options.sigmaRel});
         out.samples = std::move(s.samples);

@@ -24,5 +24,7 @@ double parseFinite(const std::string& token, const std::string& path, std::size_
 void addPolygon(InputData& data, const std::vector<int>& corners);
 /// Checks every vertex is finite; throws naming the first bad one.
 void checkFinite(const std::string& path, const std::vector<Vec3d>& points, const char* what);
+/// Throws InputError when `count` (vertices, faces, triangles or points, as `what` says) exceeds kMaxInputSamples.
+void checkSampleCount(const std::string& path, std::size_t count, const std::string& what);
 
 }  // namespace gpisvdb::detail

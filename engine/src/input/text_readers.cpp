@@ -1,4 +1,7 @@
 // OBJ, OFF and XYZ: small line-oriented text formats, parsed here so that every error can name its line.
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -24,6 +27,8 @@ int parseIndex(const std::string& token, const std::string& path, std::size_t li
     const long v = std::strtol(token.c_str(), &end, 10);
     if (end == token.c_str() || (*end != '\0' && *end != '/'))
         fail(path, line, "expected a vertex index, got '" + token + "'");
+    if (v > std::numeric_limits<int>::max() || v < -long(std::numeric_limits<int>::max()))
+        fail(path, line, "face index " + token + " is out of range");
     return int(v);
 }
 
@@ -96,14 +101,18 @@ InputData readOff(const std::string& path) {
     auto count = [&](const char* what) {
         const auto& [t, ln] = next(what);
         const double v = parseFinite(t, path, ln, what);
-        if (v < 0 || v != double(long(v))) fail(path, ln, std::string("invalid ") + what + " '" + t + "'");
+        // Checked before the cast (out of long's range it is undefined); indices are ints, so are counts.
+        if (!(v >= 0 && v <= double(std::numeric_limits<int>::max())) || v != std::floor(v))
+            fail(path, ln, std::string("invalid ") + what + " '" + t + "'");
         return long(v);
     };
     const long nv = count("vertex count"), nf = count("face count");
     count("edge count");
+    checkSampleCount(path, std::size_t(nv), "vertices declared");  // before any allocation
+    checkSampleCount(path, std::size_t(nf), "faces declared");
     InputData data;
     data.soup.emplace();
-    data.soup->vertices.reserve(std::size_t(nv));
+    data.soup->vertices.reserve(std::min(std::size_t(nv), tok.size() / 3));  // a count is no promise of data
     const bool colour = head == "COFF" || head == "CNOFF", normals = head == "NOFF" || head == "CNOFF";
     for (long i = 0; i < nv; ++i) {
         Vec3d p;
@@ -121,9 +130,10 @@ InputData readOff(const std::string& path) {
         std::vector<int> corners;
         for (long c = 0; c < k; ++c) {
             const auto& [t, cl] = next("a face index");
-            const long idx = long(parseFinite(t, path, cl, "face index"));
-            if (idx < 0 || idx >= nv) fail(path, cl, "face index " + t + " is out of range (the file has " + std::to_string(nv) + " vertices)");
-            corners.push_back(int(idx));
+            const double d = parseFinite(t, path, cl, "face index");
+            if (d != std::floor(d)) fail(path, cl, "face index " + t + " is not an integer");
+            if (!(d >= 0 && d < double(nv))) fail(path, cl, "face index " + t + " is out of range (the file has " + std::to_string(nv) + " vertices)");
+            corners.push_back(int(d));
         }
         // Optional face colour: skip the rest of this line.
         while (at < tok.size() && tok[at].second == ln && ln != 0) ++at;

@@ -15,7 +15,10 @@ std::vector<ValueGradient> GpisModel::evaluate(const std::vector<Vec3d>& xs, con
         progress.update("evaluate", double(b) / double(xs.size()));
         const std::size_t e = std::min(xs.size(), b + kBlock);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(b, e, 16), [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = evaluate(xs[i]);
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                progress.checkInterruptAt(i);
+                out[i] = evaluate(xs[i]);
+            }
         });
     }
     progress.update("evaluate", 1.0);

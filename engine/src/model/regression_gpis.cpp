@@ -179,6 +179,7 @@ std::vector<ValueGradient> RegressionGpis::evaluate(const std::vector<Vec3d>& xs
         const std::size_t blocks = (e - b + kBlock - 1) / kBlock;
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
             for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                progress.checkInterruptAt(k, 8);
                 const std::size_t first = b + k * kBlock, count = std::min(kBlock, e - first);
                 impl_->block(xs.data() + first, count, out.data() + first);
             }

@@ -309,7 +309,8 @@ SliceSpec sliceOf(const std::string& text) {
     return s;
 }
 
-void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, const std::string& path) {
+void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, const std::string& path,
+               const Progress& progress) {
     if (panels.empty()) throw ParameterError("nothing to render");
     if (o.panelWidth < 64 || o.panelHeight < 64 || o.panelWidth > 8192 || o.panelHeight > 8192)
         throw ParameterError("picture panels must be 64 to 8192 pixels wide and high");
@@ -329,6 +330,7 @@ void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, c
     window->SetSize(width, height);
     window->SetMultiSamples(8);
     for (std::size_t n = 0; n < panels.size(); ++n) {
+        progress.checkInterrupt();
         const RenderPanel& panel = panels[n];
         const int col = int(n) % columns, row = int(n) / columns;
         auto r = Ptr<vtkRenderer>::New();
@@ -357,6 +359,7 @@ void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, c
         r->AddActor2D(t);
         window->AddRenderer(r);
     }
+    progress.checkInterrupt();
     window->Render();
 
     auto grab = Ptr<vtkWindowToImageFilter>::New();
@@ -364,6 +367,7 @@ void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, c
     grab->SetInputBufferTypeToRGB();
     grab->ReadFrontBufferOff();
     grab->Update();
+    progress.checkInterrupt();
     auto writer = Ptr<vtkPNGWriter>::New();
     writer->SetFileName(path.c_str());
     writer->SetInputConnection(grab->GetOutputPort());

@@ -1,5 +1,6 @@
 #include "gpisvdb/output/write_vdb.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "gpisvdb/core/errors.h"
@@ -7,6 +8,8 @@
 namespace gpisvdb {
 
 namespace {
+
+constexpr double kHalfMax = 65504.0;  // the largest finite half float
 
 template <class GridT, class Value>
 typename GridT::Ptr channel(const Band& band, const std::string& name, const Value& value,
@@ -17,6 +20,59 @@ typename GridT::Ptr channel(const Band& band, const std::string& name, const Val
     auto acc = grid->getAccessor();
     for (std::size_t i = 0; i < band.size(); ++i) acc.setValue(band.coord[i], value(i));
     return grid;
+}
+
+/// Counts the active values of `grid` that are not finite (or, for half-float storage, beyond ±65504, which a
+/// half stores as ±∞), and the largest magnitude among the finite ones; `first` gets the first offender's voxel.
+template <class GridT, class Magnitude>
+std::size_t countBad(const GridT& grid, bool half, Magnitude magnitude, openvdb::Coord& first) {
+    std::size_t bad = 0;
+    for (auto it = grid.cbeginValueOn(); it; ++it) {
+        const double m = magnitude(*it);
+        if (std::isfinite(m) && (!half || m <= kHalfMax)) continue;
+        if (!bad) first = it.getCoord();
+        ++bad;
+    }
+    return bad;
+}
+
+/// The largest |component|; NaN when any component is NaN (std::max would drop it).
+double vecMagnitude(const openvdb::Vec3s& x) {
+    double m = 0;
+    for (int k = 0; k < 3; ++k) {
+        if (std::isnan(x[k])) return std::nan("");
+        m = std::max(m, std::abs(double(x[k])));
+    }
+    return m;
+}
+
+/// Refuses to write a grid with a non-finite active value or background (or one a half cannot hold): a tool
+/// would read inf or NaN as data, or a half file would turn large values into inf.
+void checkFiniteGrids(const openvdb::GridPtrVec& grids, bool half) {
+    for (const auto& g : grids) {
+        openvdb::Coord first;
+        std::size_t bad = 0;
+        double background = 0;
+        if (auto f = openvdb::GridBase::grid<openvdb::FloatGrid>(g)) {
+            bad = countBad(*f, half, [](float v) { return std::abs(double(v)); }, first);
+            background = std::abs(double(f->background()));
+        } else if (auto v = openvdb::GridBase::grid<openvdb::Vec3SGrid>(g)) {
+            bad = countBad(*v, half, vecMagnitude, first);
+            background = vecMagnitude(v->background());
+        } else {
+            continue;
+        }
+        const bool badBackground = !std::isfinite(background) || (half && background > kHalfMax);
+        if (!bad && !badBackground) continue;
+        const std::string where = bad ? std::to_string(bad) + " active values (the first at voxel " + std::to_string(first.x()) +
+                                            "," + std::to_string(first.y()) + "," + std::to_string(first.z()) + ")"
+                                      : std::string("its background value");
+        if (half)
+            throw ParameterError("grid '" + g->getName() + "': " + where + " are not finite or beyond the half-float range ±65504 "
+                                 "(VdbWriteOptions::halfFloat): not written; store full floats",
+                                 {"VdbWriteOptions::halfFloat"});
+        throw Error("grid '" + g->getName() + "': " + where + " are not finite (inf or NaN): not written");
+    }
 }
 
 }  // namespace
@@ -60,6 +116,10 @@ openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>&
             return openvdb::Vec3s(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
         });
         grid->setVectorType(c.vectorType);
+        auto acc = grid->getAccessor();  // like scalar channels: a non-finite vector is left inactive
+        for (std::size_t i = 0; i < band.size(); ++i)
+            if (!(std::isfinite(v[3 * i]) && std::isfinite(v[3 * i + 1]) && std::isfinite(v[3 * i + 2])))
+                acc.setValueOff(band.coord[i], openvdb::Vec3s(0.0f));
         grids.push_back(grid);
     }
     return grids;
@@ -87,6 +147,7 @@ openvdb::GridPtrVec sellingGrids(const Band& band) {
 void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
               const VdbWriteOptions& options) {
     openvdb::initialize();
+    checkFiniteGrids(grids, options.halfFloat);
     for (auto& g : grids) g->setSaveFloatAsHalf(options.halfFloat);
     try {
         openvdb::io::File file(path);

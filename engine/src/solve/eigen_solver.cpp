@@ -97,6 +97,7 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     progress.update("factorize", 0);
     InverseOperator::Factor factor;
     factor.cholmod().print = 0;  // failures are reported by the exceptions below, not on stderr
+    progress.checkInterrupt();
     factor.analyzePattern(L);
     const double needed = eigenBytes(factor.cholmod().lnz, double(n), double(ncv), double(k));
     if (options.maxBytes > 0 && needed > options.maxBytes)
@@ -106,7 +107,9 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
                              " GB allowed (EigenOptions::maxBytes): lower the eigenpair count (EigenOptions::count), use a coarser "
                              "voxel size (BandOptions::voxelSize), or raise the memory limit",
                              {"EigenOptions::maxBytes", "EigenOptions::count", "BandOptions::voxelSize"});
-    factor.factorize(L);
+    progress.checkInterrupt();
+    factor.factorize(L);  // CHOLMOD does not poll: the CLI's watchdog ends the process if a signal comes now
+    progress.checkInterrupt();
     if (factor.info() != Eigen::Success)
         throw Error("the Laplacian is not positive definite (CHOLMOD failed to factor it): is the band empty or broken?");
     const cholmod_common& c = factor.cholmod();
@@ -149,6 +152,7 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     result.residuals.resize(k);
     Eigen::MatrixXd gram(k, k);
     for (Eigen::Index c = 0; c < k; c += kCheckBlock) {
+        progress.checkInterrupt();
         const Eigen::Index w = std::min(kCheckBlock, k - c);
         const auto U = result.vectors.middleCols(c, w);
         const Eigen::MatrixXd MU = mass.asDiagonal() * U;

@@ -130,8 +130,8 @@ PcgResult PcgSolver::solve(const std::vector<float>& b, std::vector<float>& x, c
     for (;;) {
         // === CG iterations on the recursively updated residual
         while (res.relativeResidual > m.options.tolerance && res.iterations < m.options.maxIterations) {
+            progress.checkInterrupt();  // every iteration: one flag load beside an O(n) operator
             if (res.iterations % 16 == 0) {
-                progress.checkInterrupt();
                 progress.update("solve", std::min(1.0, std::log(res.relativeResidual) / std::log(m.options.tolerance)));
             }
             m.A.apply(p.data(), Ap.data());

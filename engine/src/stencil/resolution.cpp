@@ -34,6 +34,7 @@ Resolution chooseResolution(const GpisModel& model, const Samples& samples, cons
     std::vector<int> width(z.size(), 0);
     std::vector<double> muWidth(z.size(), 0);
     tbb::parallel_for(std::size_t(0), z.size(), [&](std::size_t i) {
+        progress.checkInterruptAt(i);
         const SurfaceDensity d = kacRice(z[i], options.iso, rule);
         bool changed = false;
         if (d.mu > 0) width[i] = selling(regularise(d.T, options.maxAnisotropy, changed)).width();

@@ -8,6 +8,17 @@ namespace gpisvdb {
 GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sources, const std::vector<Vec3d>& targets,
                                 const GeodesicOptions& options, const Progress& progress) {
     if (sources.empty()) throw ParameterError("the geodesic distance needs at least one source point");
+    if (sources.size() > kMaxGeodesicPoints || targets.size() > kMaxGeodesicPoints)
+        throw ParameterError("the geodesic distance takes at most " + numberText(double(kMaxGeodesicPoints)) +
+                             " source points and as many targets, got " + std::to_string(sources.size()) + " sources and " +
+                             std::to_string(targets.size()) + " targets");
+    const double bytes = double(band.size()) * kFastMarchingBytesPerVoxel;
+    if (options.maxBytes > 0 && bytes > options.maxBytes)
+        throw ParameterError("fast marching over " + std::to_string(band.size()) + " voxels needs about " + numberText(bytes / 1e9) +
+                             " GB beyond the band, more than the " + numberText(options.maxBytes / 1e9) +
+                             " GB allowed (GeodesicOptions::maxBytes): use a voxel size (BandOptions::voxelSize) of " +
+                             numberText(band.voxelSize * std::cbrt(bytes / options.maxBytes) * 1.1) + " or larger",
+                             {"GeodesicOptions::maxBytes", "BandOptions::voxelSize"});
     GeodesicResult r;
     // === Snap the points to band voxels
     for (const Vec3d& s : sources) r.sourceIndex.push_back(nearestBandVoxel(band, s));

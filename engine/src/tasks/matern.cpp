@@ -56,11 +56,13 @@ Posterior weightSpace(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& W, cons
 }
 
 /// Mean ȳ + U c and variance diag(U P Uᵀ) (clamped at 0) for rows of U, in fixed blocks (thread-count independent).
-void evaluate(const Eigen::MatrixXd& U, const Posterior& post, double priorMean, double* mean, double* variance) {
+void evaluate(const Eigen::MatrixXd& U, const Posterior& post, double priorMean, double* mean, double* variance,
+              const Progress& progress) {
     const Eigen::Index n = U.rows();
     tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, (n + kRowBlock - 1) / kRowBlock),
                       [&](const tbb::blocked_range<Eigen::Index>& blocks) {
                           for (Eigen::Index b = blocks.begin(); b != blocks.end(); ++b) {
+                              progress.checkInterrupt();
                               const Eigen::Index r0 = b * kRowBlock, rows = std::min(kRowBlock, n - r0);
                               const auto Ub = U.middleRows(r0, rows);
                               const Eigen::VectorXd m = Ub * post.c;
@@ -133,7 +135,7 @@ Eigen::MatrixXd maternKernel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,
 }
 
 RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const PointData& data,
-                              const RegressionOptions& options) {
+                              const RegressionOptions& options, const Progress& progress) {
     const std::size_t m = data.value.size();
     if (m == 0) throw ParameterError("regression needs at least one data point");
     if (data.position.size() != m || data.noise.size() != m) throw ParameterError("data positions, values and noise differ in length");
@@ -171,12 +173,12 @@ RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const 
     // === Posterior on the band and at the data
     const std::size_t n = band.size();
     std::vector<double> mean(n), variance(n);
-    evaluate(eigen.vectors, post, result.priorMean, mean.data(), variance.data());
+    evaluate(eigen.vectors, post, result.priorMean, mean.data(), variance.data(), progress);
     result.mean.assign(mean.begin(), mean.end());
     result.variance.assign(variance.begin(), variance.end());
     result.meanAtData.resize(Eigen::Index(m));
     result.varianceAtData.resize(Eigen::Index(m));
-    evaluate(Phi, post, result.priorMean, result.meanAtData.data(), result.varianceAtData.data());
+    evaluate(Phi, post, result.priorMean, result.meanAtData.data(), result.varianceAtData.data(), progress);
     return result;
 }
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "gpisvdb/core/errors.h"
@@ -226,7 +227,8 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
         progress.update("smoothed distance", double(z) / nz);
         std::vector<std::size_t> rowTerms(std::size_t(ny), 0);
         tbb::parallel_for(tbb::blocked_range<int>(0, ny), [&](const tbb::blocked_range<int>& r) {
-            for (int y = r.begin(); y != r.end(); ++y)
+            for (int y = r.begin(); y != r.end(); ++y) {
+                progress.checkInterrupt();  // per row of nx points, from the workers too
                 for (int x = 0; x < nx; ++x) {
                     const Vec3d p = H * (first + Vec3d(x, y, z));
                     std::size_t t = band.size();
@@ -234,14 +236,21 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
                     values[(std::size_t(z) * std::size_t(ny) + std::size_t(y)) * std::size_t(nx) + std::size_t(x)] = float(d);
                     rowTerms[std::size_t(y)] += t;
                 }
+            }
         });
         for (std::size_t t : rowTerms) terms[std::size_t(z)] += t;
     }
     progress.update("smoothed distance", 1.0);
 
-    // === Into a dense OpenVDB grid
+    // === Into a dense OpenVDB grid. Outside the box nothing was computed: the background there must never read as
+    //     "near" (0 would be "on the surface"), so it is a sentinel above every computed value, the largest one
+    //     plus the box's diagonal: a far distance, never a real one.
+    float largest = -std::numeric_limits<float>::infinity();
+    for (float v : values) largest = std::max(largest, v);
+    const double diagonal = H * (count - Vec3d::Ones()).norm();
+    const float background = float(std::max(double(largest), 0.0) + std::max(diagonal, H));
     SmoothedDistanceResult r;
-    r.grid = openvdb::FloatGrid::create(0.0f);
+    r.grid = openvdb::FloatGrid::create(background);
     r.grid->setName("smoothed_distance");
     r.grid->setTransform(openvdb::math::Transform::createLinearTransform(H));
     auto acc = r.grid->getAccessor();
@@ -251,6 +260,7 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
                 acc.setValueOn(openvdb::Coord(int(first[0]) + x, int(first[1]) + y, int(first[2]) + z),
                                values[(std::size_t(z) * std::size_t(ny) + std::size_t(y)) * std::size_t(nx) + std::size_t(x)]);
     r.voxelSize = H;
+    r.background = background;
     r.tolerance = o.bruteForce ? 0.0 : tol;
     r.points = std::size_t(points);
     r.meanTerms = double(std::accumulate(terms.begin(), terms.end(), std::size_t(0))) / points;

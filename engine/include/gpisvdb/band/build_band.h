@@ -47,7 +47,8 @@ struct BandVoxel {
 
 /// The band over `voxels` (distinct coordinates): the index tree in leaf order, the channels, and the Selling
 /// stencil of T regularised to anisotropy ≤ maxAnisotropy. Fills stats.regularised and stats.maxStencilL1.
-BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy);
+BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy,
+                          const Progress& progress = {});
 
 BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& options,
                      const Progress& progress = {});

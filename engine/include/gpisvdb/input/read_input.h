@@ -10,6 +10,11 @@
 
 namespace gpisvdb {
 
+/// The most samples (triangles of a mesh, points of a cloud) an input may hold: 1e8. The model alone would need
+/// tens of GB beyond it; readers refuse a file whose header declares more vertices, faces or points before
+/// reading its body, and readInput and makeSamples refuse more triangles or points.
+constexpr std::size_t kMaxInputSamples = 100000000;
+
 struct InputData {
     std::string path;
     std::optional<TriangleSoup> soup;   ///< set for meshes

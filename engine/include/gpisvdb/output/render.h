@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "gpisvdb/core/progress.h"
 #include "gpisvdb/core/types.h"
 #include "gpisvdb/output/mean_surface.h"
 
@@ -48,6 +49,8 @@ struct RenderOptions {
 /// Renders the panels into one PNG (written to `path`). Throws ParameterError on an empty panel list, a panel
 /// with nothing to draw or an unknown array, and OutputError when no X display can be had or the file cannot be
 /// written.
-void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& options, const std::string& path);
+/// Interrupted (Cancelled) between panels and before drawing and writing; VTK's own steps do not poll.
+void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& options, const std::string& path,
+               const Progress& progress = {});
 
 }  // namespace gpisvdb

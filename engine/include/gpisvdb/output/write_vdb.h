@@ -45,6 +45,9 @@ openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>&
 openvdb::GridPtrVec sellingGrids(const Band& band);
 
 /// Writes grids with Blosc compression and the file metadata. Throws OutputError when the file cannot be written.
+/// Never writes inf or NaN: a float or Vec3f grid with a non-finite active value or background throws Error
+/// (naming the grid and the first voxel), and with options.halfFloat one beyond ±65504 (a half's largest
+/// finite value) throws ParameterError naming VdbWriteOptions::halfFloat. Nothing is written then.
 void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
               const VdbWriteOptions& options = {});
 

@@ -11,9 +11,16 @@
 
 namespace gpisvdb {
 
+/// The most source points, and separately target points, one call accepts (each target costs a path).
+constexpr std::size_t kMaxGeodesicPoints = 1000000;
+/// Peak bytes per band voxel of the march, beyond the band: the forward and reverse stencil tables (2 × 48), the
+/// reverse offsets, U (8), the heap and its position map (≈ 20).
+constexpr double kFastMarchingBytesPerVoxel = 160;
+
 struct GeodesicOptions {
     bool stopAtTargets = false;  ///< end the march once every target is reached (faster; U is +∞ beyond)
     BacktrackOptions path;       ///< path integration
+    double maxBytes = 0;         ///< refuse a march needing more memory than this (kFastMarchingBytesPerVoxel per voxel; 0: no limit)
 };
 
 struct GeodesicResult {
@@ -24,7 +31,8 @@ struct GeodesicResult {
 };
 
 /// Sources and targets are world-space points, snapped to the nearest band voxel. Throws ParameterError without
-/// a source or on a non-finite point.
+/// a source, on a non-finite point, on more than kMaxGeodesicPoints sources or targets, or when the march would
+/// need more than options.maxBytes — all before any work.
 GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sources,
                                 const std::vector<Vec3d>& targets = {}, const GeodesicOptions& options = {},
                                 const Progress& progress = {});

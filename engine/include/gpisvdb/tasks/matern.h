@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "gpisvdb/band/band.h"
+#include "gpisvdb/core/progress.h"
 #include "gpisvdb/input/point_data.h"
 #include "gpisvdb/solve/eigen_solver.h"
 
@@ -60,6 +61,6 @@ struct RegressionResult {
 /// 0 or m ≤ k, weight space (k × k) otherwise; both exact. Throws ParameterError for empty data, points off the
 /// band, or more than 20 000 exact (noise-free) points.
 RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const PointData& data,
-                              const RegressionOptions& options = {});
+                              const RegressionOptions& options = {}, const Progress& progress = {});
 
 }  // namespace gpisvdb

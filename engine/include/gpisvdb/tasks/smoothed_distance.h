@@ -53,8 +53,12 @@ struct SmoothedDistanceOptions {
 };
 
 struct SmoothedDistanceResult {
-    openvdb::FloatGrid::Ptr grid;  ///< dense over the padded box, voxel size H, every value active and finite
+    openvdb::FloatGrid::Ptr grid;  ///< dense over the padded box, voxel size H, every value active and finite;
+                                   ///< its background (read outside the box) is `background`
     double voxelSize = 0;          ///< H as used
+    double background = 0;         ///< the value read outside the box: a sentinel for "far", not a distance: the
+                                   ///< largest computed value (or 0) plus the box's diagonal, so it exceeds every
+                                   ///< computed value and an outside point never reads as near the surface
     double tolerance = 0;          ///< the bound as used (0 for brute force)
     std::size_t points = 0;
     double meanTerms = 0;          ///< summed terms per point (N for brute force)
