@@ -12,6 +12,7 @@
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/model/per_point.h"
 #include "gpisvdb/stencil/resolution.h"
 
 using namespace gpisvdb;
@@ -136,28 +137,44 @@ int main(int argc, char** argv) {
         std::ofstream(out) << report.dump(2) << "\n";
     }
     if (part == "throughput" || part == "all") {
-        // === μ + T throughput on the bunny at three σ, 1 and 2 threads (h = h*: bands of 1e4–1e5 voxels)
+        // === Band throughput on the bunny at three σ and the default voxel size, 1 and 2 threads, the packet path
+        // (BarnesHutGpis's batches) and the per-point reference path (PerPointModel) side by side, with the time
+        // per stage of the packet build.
         report["throughput"] = nlohmann::json::array();
-        for (double sigma : {0.5, 1.0, 2.0}) {
+        for (double sigma : {0.25, 0.5, 1.0}) {
             const SoupSamples ss = soupSamples(bunny, {sigma});
             const BarnesHutGpis model(ss.samples, 0.4 * ss.samples.lengthScale);
+            const PerPointModel reference(model);
             const Resolution res = chooseResolution(model, ss.samples);
             BandOptions o;
-            o.voxelSize = res.hStar;
-            nlohmann::json row = {{"sigma_rel", sigma}, {"h", o.voxelSize}};
+            o.voxelSize = res.h;
+            nlohmann::json row = {{"sigma_rel", sigma}, {"h", o.voxelSize}, {"h_star", res.hStar}, {"mu_width", res.muWidth}};
+            double massPacket = 0, massReference = 0;
             for (int threads : {1, 2}) {
                 tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
-                const auto t = Clock::now();
-                const BandResult b = buildBand(model, ss.samples, o);
-                const double sec = seconds(t);
-                const auto bb = b.band.bbox();
-                row["voxels"] = b.band.size();
-                row["evaluated"] = b.stats.evaluated;
-                row["bbox_voxels"] = {bb.dim().x(), bb.dim().y(), bb.dim().z()};
-                row["bytes_per_voxel"] = b.band.bytesPerVoxel();
-                row["evaluated_per_s_" + std::to_string(threads) + "t"] = double(b.stats.evaluated) / sec;
-                row["seconds_" + std::to_string(threads) + "t"] = sec;
+                const std::string t = "_" + std::to_string(threads) + "t";
+                for (const bool packets : {true, false}) {
+                    const auto start = Clock::now();
+                    const BandResult b = buildBand(packets ? static_cast<const GpisModel&>(model) : reference, ss.samples, o);
+                    const double sec = seconds(start);
+                    const std::string path = packets ? "" : "_reference";
+                    row["voxels"] = b.band.size();
+                    row["evaluated"] = b.stats.evaluated;
+                    row["voxels_per_s" + path + t] = double(b.band.size()) / sec;
+                    row["evaluated_per_s" + path + t] = double(b.stats.evaluated) / sec;
+                    row["seconds" + path + t] = sec;
+                    (packets ? massPacket : massReference) = b.band.mass();
+                    if (packets) {
+                        row["stage_seconds" + t] = {{"model", b.stats.modelSeconds}, {"kac_rice", b.stats.kacRiceSeconds},
+                                                    {"search", b.stats.searchSeconds}, {"finish", b.stats.finishSeconds}};
+                        row["bytes_per_voxel"] = b.band.bytesPerVoxel();
+                    }
+                }
+                row["speedup" + t] = row["seconds_reference" + t].get<double>() / row["seconds" + t].get<double>();
             }
+            row["mass"] = massPacket;
+            row["mass_relative_difference_vs_reference"] = massPacket / massReference - 1;
+            row["tree_bytes_per_sample"] = double(model.memoryBytes()) / double(ss.samples.size());
             std::cout << row.dump() << std::endl;
             report["throughput"].push_back(row);
             std::ofstream(out) << report.dump(2) << "\n";

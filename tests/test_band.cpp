@@ -8,6 +8,7 @@
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/kacrice/kac_rice.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/model/per_point.h"
 #include "gpisvdb/stencil/resolution.h"
 #include "gpisvdb/stencil/selling.h"
 #include "helpers.h"
@@ -70,6 +71,28 @@ TEST_CASE("band: BFS band equals the scanned band on the bunny at two sigma", "[
         CHECK(scan.stats.evaluated > 2 * bfs.stats.evaluated);
         CHECK(bfs.stats.etaAbsolute == scan.stats.etaAbsolute);
         requireSame(bfs.band, scan.band);
+    }
+}
+
+TEST_CASE("band: the packet path builds the band of the per-point reference path", "[band]") {
+    // buildBand evaluates the model in packets (BarnesHutGpis's batch path); PerPointModel forces the old
+    // one-traversal-per-voxel path. Same voxels, channels and mass to rounding (float channels: 1e-7).
+    for (double sigma : {0.5, 1.0}) {
+        const SoupSamples ss = soupSamples(icosphere(2), {sigma});
+        const BarnesHutGpis model(ss.samples, 0.4 * ss.samples.lengthScale);
+        const PerPointModel reference(model);
+        BandOptions o;
+        o.voxelSize = 0.1;
+        const Band a = buildBand(model, ss.samples, o).band, b = buildBand(reference, ss.samples, o).band;
+        INFO("sigma " << sigma << ": " << a.size() << " voxels");
+        REQUIRE(a.size() == b.size());
+        REQUIRE(a.size() > 1000);
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            REQUIRE(a.coord[i] == b.coord[i]);
+            REQUIRE(std::abs(a.mu[i] - b.mu[i]) <= 1e-5f * b.mu[i]);
+            REQUIRE(std::abs(a.mean[i] - b.mean[i]) <= 1e-6f);
+        }
+        CHECK(a.mass() == Approx(b.mass()).epsilon(1e-7));
     }
 }
 

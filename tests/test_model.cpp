@@ -2,6 +2,7 @@
 #include <Eigen/Geometry>
 #include <random>
 
+#include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
@@ -129,6 +130,70 @@ TEST_CASE("model: Barnes-Hut converges to the direct sum as beta grows", "[model
         CHECK(err < previous);
         previous = err;
     }
+}
+
+TEST_CASE("model: a packet of points opens the nodes each point opens alone (batch equals single-point evaluation)", "[model]") {
+    // The batch path (Morton order, packets of 8, SIMD lanes) against the reference path (one traversal per point):
+    // the same nodes and samples per point, so the same numbers to rounding. Points: near and far, a dense
+    // lattice block as in a band leaf, a batch that is not a multiple of 8, and inputs scaled by 1e-6 and 1e6.
+    struct Case {
+        const char* name;
+        Samples samples;
+    };
+    std::vector<Case> cases;
+    cases.push_back({"sphere", soupSamples(icosphere(3), {0.5}).samples});
+    cases.push_back({"bunny", makeSamples(readInput(test::dataPath("bunny.obj")), {0.25}).samples});
+    cases.push_back({"cloud", makeSamples(readInput(test::dataPath("sphere_20k_normal.xyz")), {1.0}).samples});
+    for (double scale : {1e-6, 1e6}) {
+        TriangleSoup t = torus(24, 8);
+        for (auto& v : t.vertices) v *= scale;
+        cases.push_back({scale < 1 ? "torus x1e-6" : "torus x1e6", soupSamples(t, {0.5}).samples});
+    }
+    for (const Case& c : cases) {
+        const BarnesHutGpis bh(c.samples, 0.4 * c.samples.lengthScale);
+        std::vector<Vec3d> xs = nearAndFar(c.samples, 1203, 17);
+        const double h = 0.3 * c.samples.lengthScale;
+        const Vec3d corner = c.samples.position[c.samples.size() / 3];
+        for (int i = 0; i < 8; ++i)
+            for (int j = 0; j < 8; ++j)
+                for (int k = 0; k < 8; ++k) xs.push_back(corner + h * Vec3d(i, j, k));
+        const std::vector<ValueGradient> batch = bh.evaluate(xs);
+        std::vector<ValueGradient> single(xs.size());
+        for (std::size_t i = 0; i < xs.size(); ++i) single[i] = bh.evaluate(xs[i]);
+        const ModelError e = compareModels(single, batch);
+        INFO(c.name << ": " << e.describe());
+        CHECK(e.worst() <= 1e-12);
+        // And the covariance pointwise, against the point's own √(c_aa c_bb): far points have tiny covariances, which
+        // the norm above (scaled by the largest over the points) would not see. (Not the mean: outside a closed
+        // surface γ's terms cancel to rounding noise, which no two summation orders share.)
+        double worst = 0;
+        for (std::size_t i = 0; i < xs.size(); ++i)
+            for (int a = 0; a < 4; ++a)
+                for (int b = 0; b < 4; ++b) {
+                    const double scale = std::sqrt(single[i].cov(a, a) * single[i].cov(b, b));
+                    worst = std::max(worst, std::abs(batch[i].cov(a, b) - single[i].cov(a, b)) / scale);
+                }
+        CHECK(worst <= 1e-10);
+    }
+}
+
+TEST_CASE("model: a packet holds 1 to 8 points and refuses more", "[model]") {
+    const Samples s = soupSamples(icosphere(2), {0.5}).samples;
+    const BarnesHutGpis bh(s, 0.4 * s.lengthScale);
+    const std::vector<Vec3d> xs = nearAndFar(s, 9, 4);
+    for (int count = 1; count <= BarnesHutGpis::kPacket; ++count) {
+        std::vector<ValueGradient> out(static_cast<std::size_t>(count));
+        bh.evaluatePacket(xs.data(), count, out.data());
+        for (int l = 0; l < count; ++l) {
+            const ValueGradient ref = bh.evaluate(xs[std::size_t(l)]);
+            CHECK((out[std::size_t(l)].mean - ref.mean).norm() <= 1e-12 * ref.mean.norm());
+            CHECK((out[std::size_t(l)].cov - ref.cov).norm() <= 1e-12 * ref.cov.norm());
+        }
+    }
+    std::vector<ValueGradient> out(9);
+    CHECK_THROWS_AS(bh.evaluatePacket(xs.data(), 9, out.data()), Error);
+    CHECK_THROWS_AS(bh.evaluatePacket(xs.data(), 0, out.data()), Error);
+    CHECK(bh.evaluate(std::vector<Vec3d>{}).empty());
 }
 
 TEST_CASE("model: batch results do not depend on the thread count", "[model]") {

@@ -220,7 +220,9 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
                   {"bbox_min", {bb.min().x(), bb.min().y(), bb.min().z()}}, {"mass", band.mass()},
                   {"max_stencil_l1", st.maxStencilL1}, {"max_stencil_l1_at_samples", job.resolution.maxStencilL1},
                   {"evaluated_voxels", st.evaluated}, {"bfs_levels", st.levels},
-                  {"regularised_voxels", st.regularised}, {"median_mu_at_samples", st.medianSampleMu}}},
+                  {"regularised_voxels", st.regularised}, {"median_mu_at_samples", st.medianSampleMu},
+                  {"stage_seconds", {{"model", st.modelSeconds}, {"kac_rice", st.kacRiceSeconds},
+                                     {"search", st.searchSeconds}, {"finish", st.finishSeconds}}}}},
         {"warnings", job.warnings},
         {"memory", {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0}, {"band_bytes_per_voxel", band.bytesPerVoxel()}}},
     };

@@ -1,6 +1,7 @@
 #include "gpisvdb/band/build_band.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <tbb/parallel_for.h>
 
@@ -32,12 +33,18 @@ Coord voxelOf(const Vec3d& p, double h) {
     return Coord(int(std::lround(k.x())), int(std::lround(k.y())), int(std::lround(k.z())));
 }
 
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
 /// Evaluates the GPIS and Kac–Rice at voxel centres h·c, in parallel.
 std::vector<BandVoxel> evaluateVoxels(const GpisModel& model, const std::vector<Coord>& coords, double h, double iso,
-                                      const QmcRule& rule, const Progress& progress) {
+                                      const QmcRule& rule, const Progress& progress, BandStats& stats) {
+    auto t = Clock::now();
     std::vector<Vec3d> xs(coords.size());
     for (std::size_t i = 0; i < coords.size(); ++i) xs[i] = h * Vec3d(coords[i].x(), coords[i].y(), coords[i].z());
     const std::vector<ValueGradient> z = model.evaluate(xs, progress);
+    stats.modelSeconds += since(t);
+    t = Clock::now();
     std::vector<BandVoxel> out(coords.size());
     tbb::parallel_for(std::size_t(0), coords.size(), [&](std::size_t i) {
         progress.checkInterruptAt(i);
@@ -46,6 +53,7 @@ std::vector<BandVoxel> evaluateVoxels(const GpisModel& model, const std::vector<
         out[i] = {coords[i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
                   g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero()};
     });
+    stats.kacRiceSeconds += since(t);
     return out;
 }
 
@@ -83,9 +91,11 @@ void checkBudget(std::size_t evaluated, const BandOptions& o, double h) {
 
 BandResult finish(std::vector<BandVoxel>&& accepted, const BandOptions& o, const BandStats& stats, const Progress& progress) {
     progress.checkInterrupt();
+    const auto t = Clock::now();
     BandResult r = bandFromVoxels(std::move(accepted), o.voxelSize, o.maxAnisotropy, progress.interruptOnly());
     const BandStats own = r.stats;
     r.stats = stats;
+    r.stats.finishSeconds = since(t);
     r.stats.regularised = own.regularised;
     r.stats.maxStencilL1 = own.maxStencilL1;
     return r;
@@ -123,7 +133,7 @@ struct Rounds {
         stats.evaluated += coords.size();
         checkBudget(stats.evaluated, options, options.voxelSize);
         std::vector<BandVoxel> values = evaluateVoxels(model, coords, options.voxelSize, options.iso, rule,
-                                                              progress.interruptOnly());
+                                                       progress.interruptOnly(), stats);
         if (stats.levels++ == 0) eta = absoluteEta(values, sampleVox, options.etaRelative, stats);
         return values;
     }
@@ -208,6 +218,7 @@ BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, doubl
 
 BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
     checkOptions(o);
+    const auto start = Clock::now();
     Rounds rounds(model, samples, o, progress);
 
     // === Seeds: the samples' voxels and their 26 neighbours
@@ -233,11 +244,13 @@ BandResult buildBand(const GpisModel& model, const Samples& samples, const BandO
         progress.update("band", 1.0 - 1.0 / (1.0 + 0.1 * rounds.stats.levels));
     }
     progress.update("band", 1.0);
+    rounds.stats.searchSeconds = since(start) - rounds.stats.modelSeconds - rounds.stats.kacRiceSeconds;
     return finish(std::move(accepted), o, rounds.stats, progress);
 }
 
 BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
     checkOptions(o);
+    const auto start = Clock::now();
     Rounds rounds(model, samples, o, progress);
     openvdb::CoordBBox box;
     for (const Coord& c : rounds.sampleVox) box.expand(c);
@@ -263,6 +276,7 @@ BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOp
         const Coord dim = box.dim();
         box.expand(std::max({2, dim.x() / 8, dim.y() / 8, dim.z() / 8}));
     }
+    rounds.stats.searchSeconds = since(start) - rounds.stats.modelSeconds - rounds.stats.kacRiceSeconds;
     return finish(std::move(all), o, rounds.stats, progress);
 }
 

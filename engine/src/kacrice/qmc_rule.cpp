@@ -1,5 +1,6 @@
 #include "gpisvdb/kacrice/qmc_rule.h"
 
+#include <algorithm>
 #include <boost/math/special_functions/erf.hpp>
 #include <cmath>
 #include <cstdint>
@@ -57,6 +58,13 @@ QmcRule::QmcRule(int samples) {
         }
         points_.push_back(z);
     }
+    const std::size_t padded = (points_.size() + 7) / 8 * 8;
+    for (int d = 0; d < 3; ++d) {
+        coordinate_[d].assign(padded, 0.0);
+        for (std::size_t i = 0; i < points_.size(); ++i) coordinate_[d][i] = points_[i][d];
+    }
+    weight_.assign(padded, 0.0);
+    std::fill(weight_.begin(), weight_.begin() + long(points_.size()), 1.0);
 }
 
 }  // namespace gpisvdb

@@ -235,15 +235,4 @@ ValueGradient BarnesHutGpis::evaluate(const Vec3d& x) const {
     return out;
 }
 
-double BarnesHutGpis::covarianceBeta2(double d2) const {
-    // The covariance's relative truncation error per node has a large constant (its terms fall off like
-    // 1/d⁴…1/d⁸), so near the query it needs twice the mean's ratio. Far away its terms are small against the
-    // near field: a node's absolute error falls like (r/d)⁴ (L/d)², so the ratio may relax like √(L/d) beyond
-    // L = covarianceRelax·s, down to 2.
-    const double b2 = 4.0 * options_.beta * options_.beta;
-    const double L = options_.covarianceRelax * kernel_.smoothing();
-    if (d2 <= L * L) return b2;
-    return std::max(4.0, b2 * L / std::sqrt(d2));
-}
-
 }  // namespace gpisvdb

@@ -28,6 +28,11 @@ struct BandStats {
     std::size_t regularised = 0;   ///< voxels whose T was regularised for anisotropy
     int maxStencilL1 = 0;          ///< max ‖e‖₁ over the band
     int levels = 0;                ///< BFS levels (scan: growth rounds)
+    // Wall-clock seconds per stage (they sum to about the whole build):
+    double modelSeconds = 0;       ///< evaluating the GPIS at the visited voxels
+    double kacRiceSeconds = 0;     ///< μ, T and the channels from the Gaussians
+    double searchSeconds = 0;      ///< the BFS frontier (or the scan's boxes) and η
+    double finishSeconds = 0;      ///< the index tree in leaf order, the channels' arrays and the Selling stencils
 };
 
 struct BandResult {

@@ -17,6 +17,10 @@ struct SurfaceDensity {
 
 /// μ and T from the Gaussian (φ, ∇φ) at a point. A point with c₀₀ ≤ 0 (no uncertainty left) or whose density
 /// underflows gets μ = 0, T = 0.
+/// The expectations run over the rule in SIMD lanes (8 points at a time, the same result on every CPU).
 SurfaceDensity kacRice(const ValueGradient& z, double iso, const QmcRule& rule);
+
+/// The same with a plain loop over the rule's points: the reference the tests compare kacRice against.
+SurfaceDensity kacRiceReference(const ValueGradient& z, double iso, const QmcRule& rule);
 
 }  // namespace gpisvdb

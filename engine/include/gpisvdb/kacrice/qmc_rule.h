@@ -14,9 +14,15 @@ public:
     explicit QmcRule(int samples = 512);
     const std::vector<Vec3d>& points() const { return points_; }
     int size() const { return int(points_.size()); }
+    /// The same points by coordinate (coordinate(d)[i] = points()[i][d]), zero-padded to a multiple of 8 entries
+    /// for SIMD loops; weight()[i] is 1 for a point, 0 for padding.
+    const std::vector<double>& coordinate(int d) const { return coordinate_[d]; }
+    const std::vector<double>& weight() const { return weight_; }
 
 private:
     std::vector<Vec3d> points_;
+    std::vector<double> coordinate_[3];
+    std::vector<double> weight_;
 };
 
 }  // namespace gpisvdb

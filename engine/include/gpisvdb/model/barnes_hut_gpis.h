@@ -4,6 +4,8 @@
 // of ∇ρ(y − δ) to second order), for the covariance Σ σ² w wᵀ, Σ σ² δ w wᵀ, Σ Σ', Σ δ Σ' (first order).
 // A node stands in for its samples when ‖x − c‖ > β·r (mean) or > β_cov(d)·r (covariance; see
 // BarnesHutOptions), r its radius about c; otherwise its children, or its samples exactly, are summed.
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -18,15 +20,25 @@ struct BarnesHutOptions {
                                     ///< and for their covariance beyond 2·beta × its radius (dimensionless, > 1)
     double covarianceRelax = 5.0;   ///< beyond this distance (units of the smoothing s) the covariance ratio
                                     ///< relaxes like √(L/d), down to 2
-    int leafSize = 16;     ///< most samples in a leaf (≥ 1)
+    int leafSize = 32;     ///< most samples in a leaf (≥ 1); 32 is both faster and more accurate than 16 in packets
+                           ///< (docs/model.md#packets)
 };
 
 class BarnesHutGpis final : public GpisModel {
 public:
     /// s: smoothing length of the kernel, world units (> 0). Builds the tree (O(n log n)).
     BarnesHutGpis(const Samples& samples, double s, const BarnesHutOptions& options = {});
-    using GpisModel::evaluate;
+    /// One point: the reference path, one traversal per point.
     ValueGradient evaluate(const Vec3d& x) const override;
+    /// Many points: sorted along a Morton curve and evaluated kPacket at a time, one traversal per packet
+    /// (evaluatePacket). Each result equals evaluate(x) up to rounding; none depends on the thread count.
+    std::vector<ValueGradient> evaluate(const std::vector<Vec3d>& xs, const Progress& progress = {}) const override;
+
+    /// Points evaluated together: every node is tested for each of them and its expansion computed for all of them
+    /// at once, in SIMD lanes; each point keeps exactly the nodes and the order that evaluate(x) would use.
+    static constexpr int kPacket = 8;
+    /// evaluate(x) for count ≤ kPacket points xs[0..count) into out[0..count).
+    void evaluatePacket(const Vec3d* xs, int count, ValueGradient* out) const;
 
     std::size_t nodeCount() const { return nodes_.size(); }
     /// Bytes held by the tree and its reordered copy of the samples.
@@ -57,12 +69,23 @@ public:
     };
 
 private:
+    friend struct PacketTraversal;  // barnes_hut_packet.cpp
     void split(std::uint32_t node, int depth);
     /// Appends a node over samples [begin, end) with its moments; returns its index.
     std::uint32_t addNode(std::uint32_t begin, std::uint32_t end);
     void addFarMean(const MeanMoments& mm, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const;
     void addFarCovariance(const CovarianceMoments& cm, const Vec3d& y, const RadialDerivatives& F, ValueGradient& out) const;
-    double covarianceBeta2(double d2) const;
+    /// The covariance's opening ratio², by the squared distance d2 (the packet traversal repeats it in lanes).
+    double covarianceBeta2(double d2) const {
+        // The covariance's relative truncation error per node has a large constant (its terms fall off like
+        // 1/d⁴…1/d⁸), so near the query it needs twice the mean's ratio. Far away its terms are small against the
+        // near field: a node's absolute error falls like (r/d)⁴ (L/d)², so the ratio may relax like √(L/d) beyond
+        // L = covarianceRelax·s, down to 2.
+        const double b2 = 4.0 * options_.beta * options_.beta;
+        const double L = options_.covarianceRelax * kernel_.smoothing();
+        if (d2 <= L * L) return b2;
+        return std::max(4.0, b2 * L / std::sqrt(d2));
+    }
 
     Samples samples_;  // reordered so that every node's samples are contiguous
     std::vector<Node> nodes_;

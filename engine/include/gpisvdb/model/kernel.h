@@ -26,6 +26,13 @@ public:
     double smoothing() const { return s_; }
     /// All F_k at squared distance t = r² (world units²).
     RadialDerivatives at(double t) const;
+    /// r² beyond which at() uses the pure Newton terms (erf = 1, no Gaussian term): F_k = c_k r^-(2k+1).
+    double newtonDistance2() const { return tFar_; }
+    /// r² below which at() sums the power series; between the two, the closed forms in erf(a r) and exp(−a² r²).
+    double seriesDistance2() const { return tSwitch_; }
+    /// a = 1/(√2 s) and c = 2a/√π of the closed forms.
+    double erfScale() const { return a_; }
+    double gaussianFactor() const { return c_; }
 
     /// D²ρ at y.
     static Mat3d hessian(const RadialDerivatives& F, const Vec3d& y);
