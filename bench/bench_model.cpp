@@ -38,6 +38,21 @@ std::vector<Vec3d> nearPoints(const Samples& s, std::size_t count, std::uint64_t
     return xs;
 }
 
+/// Band-like queries: `blocks` lattice blocks of 8³ points at spacing 0.3ℓ (a VDB leaf of a band at h ≈ h*), each
+/// with a random sample at its centre.
+std::vector<Vec3d> leafBlocks(const Samples& s, std::size_t blocks, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    const double h = 0.3 * s.lengthScale;
+    std::vector<Vec3d> xs;
+    for (std::size_t b = 0; b < blocks; ++b) {
+        const Vec3d c = s.position[rng() % s.size()];
+        for (int i = 0; i < 8; ++i)
+            for (int j = 0; j < 8; ++j)
+                for (int k = 0; k < 8; ++k) xs.push_back(c + h * Vec3d(i - 3.5, j - 3.5, k - 3.5));
+    }
+    return xs;
+}
+
 /// Median seconds per query over `repeats` runs of the batch.
 double perQuery(const GpisModel& m, const std::vector<Vec3d>& xs, int repeats) {
     std::vector<double> t;
@@ -98,6 +113,13 @@ int main(int argc, char** argv) {
         row["bh_error_per_number"] = err.maxRel;
         // Barnes–Hut in packets (the batch path) and one point at a time (the reference path), side by side.
         const PerPointModel bhPerPoint(bh);
+        {
+            // Cost per band-like voxel (lattice blocks, what the band evaluates) against n: packets and reference.
+            tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+            const auto xsLeaf = leafBlocks(s, quick ? 4 : 16, 5);
+            row["leaf_block_us_per_point_1t"] = 1e6 * perQuery(bh, xsLeaf, 3);
+            row["leaf_block_us_per_point_reference_1t"] = 1e6 * perQuery(bhPerPoint, xsLeaf, 1);
+        }
         for (int threads : {1, 2}) {
             tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
             const double td = perQuery(direct, xsDirect, 3), tb = perQuery(bh, xsBH, 3), tp = perQuery(bhPerPoint, xsBH, 3);

@@ -49,7 +49,7 @@ bool crossesGap(const GeodesicPath& p) {
 struct DemoArgs {
     std::string dir = "demo-output";
     std::vector<double> sigmas{0.5, 1.5, 3.0};
-    double voxelSize = 0.04;
+    double voxelSize = 0;  ///< 0: the default rule at each σ (as every command), else this h for all
     int eigenCount = 4;
     int pictureWidth = 420;
     int threads = 0;
@@ -62,6 +62,7 @@ struct SigmaRun {
     double sigmaRel = 0, sigma = 0;
     std::string subdir;
     std::size_t voxels = 0;
+    double voxelSize = 0;
     double mass = 0;
     int greenIterations = 0;
     GeodesicPath path;
@@ -94,6 +95,7 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     const Band& band = job.result.band;
     run.sigma = job.model.input.sigma;
     run.voxels = band.size();
+    run.voxelSize = job.options.voxelSize;
     run.mass = band.mass();
 
     // === Green's function from the source (Alg. 1)
@@ -199,7 +201,8 @@ void comparisonPicture(const std::vector<SigmaRun>& runs, const DemoArgs& a, con
     o.panelHeight = a.pictureWidth * 5 / 6;
     o.caption = "gpisvdb demo: torus with the slab x > 0, |y| < 0.3 cut away; columns: sigma = ";
     for (std::size_t i = 0; i < runs.size(); ++i) o.caption += (i ? ", " : "") + sigmaText(runs[i].sigmaRel);
-    o.caption += " x l; voxel size " + sigmaText(a.voxelSize);
+    o.caption += " x l; voxel size ";
+    for (std::size_t i = 0; i < runs.size(); ++i) o.caption += (i ? ", " : "") + sigmaText(runs[i].voxelSize);
     renderPng(panels, o, path, makeProgress(true));
 }
 
@@ -222,12 +225,13 @@ void writeSummary(const std::vector<SigmaRun>& runs, const DemoArgs& a, double e
     s << "# gpisvdb demo\n\n"
       << "Input: a torus soup (ring radius 1, tube radius 0.4) with the slab x > 0, |y| < 0.3 of its ring cut away "
          "(data missing there); length scale l = " << ell << ". Each column of the picture is one noise level sigma "
-         "(relative to l); voxel size " << a.voxelSize << ".\n\n"
+         "(relative to l); voxel size " << (a.voxelSize > 0 ? "fixed by --voxel-size" : "by the default rule at each sigma")
+      << ".\n\n"
       << "![input](input.png)\n\n![comparison](comparison.png)\n\n"
-      << "| sigma / l | band voxels | expected area (sum mu h^3) | Green PCG iterations | path length | path | eigenvalues |\n"
-      << "|---|---|---|---|---|---|---|\n";
+      << "| sigma / l | voxel size | band voxels | expected area (sum mu h^3) | Green PCG iterations | path length | path | eigenvalues |\n"
+      << "|---|---|---|---|---|---|---|---|\n";
     for (const SigmaRun& r : runs) {
-        s << "| " << r.sigmaRel << " | " << r.voxels << " | " << std::setprecision(4) << r.mass << " | " << r.greenIterations
+        s << "| " << r.sigmaRel << " | " << r.voxelSize << " | " << r.voxels << " | " << std::setprecision(4) << r.mass << " | " << r.greenIterations
           << " | " << r.path.length << " | " << (r.pathCrossesGap ? "across the gap" : "round the ring") << " |";
         for (double l : r.eigenvalues) s << " " << l;
         s << " |\n";
@@ -251,7 +255,8 @@ void addDemo(CLI::App& app, Action& action) {
     cmd->add_option("--sigma", a->sigmas, "noise levels sigma, relative to the length scale l (> 0; one picture column each)")
         ->expected(1, 6)
         ->capture_default_str();
-    cmd->add_option("--voxel-size", a->voxelSize, "voxel size h in world units (the torus' ring has radius 1)")->capture_default_str();
+    cmd->add_option("--voxel-size", a->voxelSize,
+                    "voxel size h in world units for every sigma (the torus' ring has radius 1; default: the default rule at each sigma)");
     cmd->add_option("-k,--count", a->eigenCount, "eigenpairs per sigma (1 to 20)")->capture_default_str();
     cmd->add_option("--picture-width", a->pictureWidth, "pixels per picture panel (64 to 2000)")->capture_default_str();
     cmd->add_flag("--half", a->half, "store the .vdb grids as 16-bit floats");
@@ -265,7 +270,8 @@ void addDemo(CLI::App& app, Action& action) {
             const auto start = Clock::now();
             for (double s : a->sigmas)
                 if (!(s > 0) || !std::isfinite(s)) throw ParameterError("--sigma must be finite and > 0 (got " + numberText(s) + ")");
-            if (!(a->voxelSize >= 0.01 && a->voxelSize <= 0.2)) throw ParameterError("--voxel-size must be in [0.01, 0.2] for the built-in torus");
+            if (a->voxelSize != 0 && !(a->voxelSize >= 0.01 && a->voxelSize <= 0.2))
+                throw ParameterError("--voxel-size must be in [0.01, 0.2] for the built-in torus");
             if (a->eigenCount < 1 || a->eigenCount > 20) throw ParameterError("-k must be in [1, 20]");
             if (a->pictureWidth < 64 || a->pictureWidth > 2000) throw ParameterError("--picture-width must be in [64, 2000]");
             const auto threads = limitThreads(a->threads);
@@ -296,10 +302,10 @@ void addDemo(CLI::App& app, Action& action) {
             nlohmann::json report = {{"input", {{"shape", "torus (ring 1, tube 0.4), 64 x 24 quads"}, {"gap_box_min", {kGapLo.x(), kGapLo.y(), kGapLo.z()}},
                                                 {"gap_box_max", {kGapHi.x(), kGapHi.y(), kGapHi.z()}}, {"triangles", data.soup->triangles.size()},
                                                 {"length_scale", ell}}},
-                                     {"voxel_size", a->voxelSize}, {"source", {kSource.x(), kSource.y(), kSource.z()}},
+                                     {"voxel_size", a->voxelSize > 0 ? nlohmann::json(a->voxelSize) : nlohmann::json("default rule per sigma")}, {"source", {kSource.x(), kSource.y(), kSource.z()}},
                                      {"target", {kTarget.x(), kTarget.y(), kTarget.z()}}, {"runs", nlohmann::json::array()}};
             for (const SigmaRun& r : runs)
-                report["runs"].push_back({{"sigma_rel", r.sigmaRel}, {"sigma", r.sigma}, {"directory", r.subdir},
+                report["runs"].push_back({{"sigma_rel", r.sigmaRel}, {"sigma", r.sigma}, {"voxel_size", r.voxelSize}, {"directory", r.subdir},
                                           {"band_voxels", r.voxels}, {"band_mass", r.mass},
                                           {"green_pcg_iterations", r.greenIterations},
                                           {"path", {{"length", r.path.length}, {"distance", r.path.distance},

@@ -12,7 +12,7 @@
 namespace gpisvdb {
 
 Mat3d regularise(const Mat3d& T, double maxAnisotropy, bool& changed) {
-    Eigen::SelfAdjointEigenSolver<Mat3d> eig(T);
+    const Eigen::SelfAdjointEigenSolver<Mat3d> eig(T, Eigen::EigenvaluesOnly);  // once per band voxel: no vectors
     const double lmax = eig.eigenvalues().maxCoeff(), lmin = eig.eigenvalues().minCoeff();
     const double floor = lmax / (maxAnisotropy * maxAnisotropy);
     changed = lmax > 0 && lmin < floor;
