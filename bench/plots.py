@@ -273,10 +273,10 @@ def plot_band(ctx, d):
     area = d.get("sphere_area") or []
     if area:
         fig, ax = plt.subplots(figsize=(7, 4.2))
-        # bench_band's first row is at the default h = w_μ/2, the others at min(h*, 1.5 w_μ)
+        # bench_band's first row is at a fine h = w_μ/2 (the default before issue 17), the others at min(h*, 1.5 w_μ)
         first, rest = area[0], sorted(area[1:], key=lambda r: r["sigma_rel"])
         ax.plot([first["sigma_rel"]], [100 * first["relative_error_vs_soup"]], "D", ms=11, mfc="none", mew=1.5,
-                color="C3", label="h = %g w_μ (default h), N = %s" % (first["h_over_mu_width"], fmt_n(first["voxels"])))
+                color="C3", label="h = %g w_μ (fine), N = %s" % (first["h_over_mu_width"], fmt_n(first["voxels"])))
         if rest:
             ax.plot([r["sigma_rel"] for r in rest], [100 * r["relative_error_vs_soup"] for r in rest], "o-", color="C0",
                     label="h = min(h*, 1.5 w_μ)")

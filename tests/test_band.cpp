@@ -242,6 +242,22 @@ TEST_CASE("band: the expected area converges to the sphere soup's area as sigma 
     CHECK(std::abs(r.band.mass() / area - 1) <= 0.02);  // measured −0.6% (docs/benchmarks.md)
 }
 
+TEST_CASE("band: the default voxel size is min(h*, k w_mu), and the resolution scale refines it whichever term binds", "[band]") {
+    // Bunny at σ_rel 0.5: h* ≈ 2 w_μ, so the w_μ term binds (docs/benchmarks.md#default-voxel-size)
+    const Fixture f = bunny(0.5);
+    const Resolution r = chooseResolution(*f.model, f.samples);
+    INFO("h* " << r.hStar << ", w_mu " << r.muWidth << ", h " << r.h);
+    REQUIRE(r.muWidth > 0);
+    CHECK(r.h == Approx(std::min(r.hStar, kMuWidthFactor * r.muWidth)).epsilon(1e-12));
+    CHECK(r.h < r.hStar);
+    ResolutionOptions finer;
+    finer.resolutionScale = 0.5;
+    const Resolution s = chooseResolution(*f.model, f.samples, finer);
+    CHECK(s.hStar == Approx(0.5 * r.hStar).epsilon(1e-12));
+    CHECK(s.muWidth == r.muWidth);
+    CHECK(s.h == Approx(0.5 * r.h).epsilon(1e-12));
+}
+
 TEST_CASE("band: bad parameters are refused with a ParameterError", "[band]") {
     const Fixture f = bunny(1.0);
     BandOptions o;

@@ -214,7 +214,7 @@ TEST_CASE("interrupt: SIGINT and SIGTERM stop every long command within a second
     // Voxel size 0.25: the band takes ~1-4 s (model, resolution, BFS levels), then the task's own stage.
     const std::string small = " --voxel-size 0.25 -o " + vdb + " --report " + json + " --quiet";
     const std::vector<std::pair<std::string, std::string>> commands = {
-        {"band", "band " + bunny + " -o " + vdb + " --report " + json + " --quiet"},  // default size: minutes
+        {"band", "band " + bunny + " -o " + vdb + " --report " + json + " --quiet"},  // default size: ~1 min
         {"green", "green " + bunny + " --source 0.5,6,1" + small},
         {"geodesic", "geodesic " + bunny + " --source 0.5,6,1" + small},
         {"spectrum", "spectrum " + bunny + " -k 40" + small},

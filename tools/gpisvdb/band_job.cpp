@@ -54,8 +54,11 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
     cmd.add_option("--iso", f.band.iso, "iso-value u of the surface phi = u (default: 0.5 for the winding model, 0 for regression)");
     cmd.add_option("--eta", f.band.etaRelative, "band threshold: keep mu > eta x (median mu at the samples' voxels) (> 0)")
         ->capture_default_str();
-    auto* vs = cmd.add_option("--voxel-size", f.band.voxelSize, "voxel size h in world units (default: min(h*, w_mu/2))");
-    cmd.add_option("--resolution-scale", f.resolutionScale, "scales lambda_res = l in h* = lambda_res / max stencil width (> 0)")
+    const std::string k = numberText(kMuWidthFactor);
+    auto* vs = cmd.add_option("--voxel-size", f.band.voxelSize,
+                              "voxel size h in world units (default: min(h*, " + k + " w_mu), h* = l / max stencil width, w_mu mu's width)");
+    cmd.add_option("--resolution-scale", f.resolutionScale,
+                   "scales the default voxel size, h* and " + k + " w_mu alike (> 0; below 1 is finer: 0.6 for pictures of mu without moire)")
         ->excludes(vs)
         ->capture_default_str();
     cmd.add_option("--qmc", f.band.qmcSamples, "QMC points S for mu and T (>= 1)")->capture_default_str();

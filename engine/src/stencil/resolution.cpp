@@ -46,7 +46,9 @@ Resolution chooseResolution(const GpisModel& model, const Samples& samples, cons
     r.hStar = options.resolutionScale * samples.lengthScale / r.maxStencilL1;
     std::nth_element(muWidth.begin(), muWidth.begin() + long(muWidth.size() / 2), muWidth.end());
     r.muWidth = muWidth[muWidth.size() / 2];
-    r.h = r.muWidth > 0 ? std::min(r.hStar, 0.5 * r.muWidth) : r.hStar;
+    // w_μ is scaled by c too, so that --resolution-scale refines the grid whichever term binds (at small σ the
+    // w_μ term does, and scaling h* alone would change nothing).
+    r.h = r.muWidth > 0 ? std::min(r.hStar, options.resolutionScale * kMuWidthFactor * r.muWidth) : r.hStar;
     return r;
 }
 

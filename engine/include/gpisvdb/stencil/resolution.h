@@ -1,24 +1,29 @@
 #pragma once
 // The voxel size (paper Eq. 25; docs/math.md#resolution): h* = λ_res / max_i w(p_i), w the Selling stencil width of T at the
-// samples; since Eq. 25 alone can under-resolve μ, the default is min(h*, w_μ/2) with w_μ = median √c₀₀/‖∇γ‖
-// over the samples (μ's width across the surface).
+// samples; since Eq. 25 alone can under-resolve μ at small σ, the default is min(h*, c·k·w_μ) with w_μ = median
+// √c₀₀/‖∇γ‖ over the samples (μ's width across the surface), c the resolution scale and k = kMuWidthFactor,
+// the coarsest factor measured that keeps mass, energy, spectrum and geodesic paths within their documented
+// errors (bench/bench_resolution.cpp; docs/benchmarks.md#default-voxel-size). Pictures of μ need c ≈ 0.6.
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/input/samples.h"
 #include "gpisvdb/model/gpis_model.h"
 
 namespace gpisvdb {
 
+/// k in the default h = min(h*, c·k·w_μ) (docs/math.md#resolution).
+constexpr double kMuWidthFactor = 1.25;
+
 struct ResolutionOptions {
     double iso = 0.5;              ///< iso-value u
     int qmcSamples = 512;          ///< S for T at the samples
-    double resolutionScale = 1.0;  ///< λ_res = resolutionScale·ℓ (> 0)
+    double resolutionScale = 1.0;  ///< c (> 0): λ_res = c·ℓ, and the default h scales with c (c < 1: finer)
     double maxAnisotropy = 20;     ///< as BandOptions::maxAnisotropy
 };
 
 struct Resolution {
-    double hStar = 0;        ///< Eq. 25, world units
-    double muWidth = 0;      ///< w_μ, world units
-    double h = 0;            ///< min(h*, w_μ/2), world units
+    double hStar = 0;        ///< Eq. 25 with λ_res = c·ℓ, world units
+    double muWidth = 0;      ///< w_μ, world units (not scaled by c)
+    double h = 0;            ///< the default voxel size min(h*, c·kMuWidthFactor·w_μ), world units
     int maxStencilL1 = 0;    ///< max_i w(p_i)
 };
 
