@@ -72,6 +72,7 @@ TEST_CASE("demo: writes every promised file, and each opens in an independent re
     REQUIRE(report["runs"].size() == 2);
     for (const auto& run : report["runs"]) {
         CHECK(run["band_voxels"].get<std::size_t>() > 1000);
+        CHECK(run["voxel_size"].get<double>() == Approx(0.08).epsilon(1e-12));  // --voxel-size holds for every σ
         CHECK(run["path"]["reached_source"].get<bool>());
         const auto ev = run["eigenvalues"].get<std::vector<double>>();
         REQUIRE(ev.size() == 2);
