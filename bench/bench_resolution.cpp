@@ -366,32 +366,31 @@ nlohmann::json runPictures(const std::string& data, double sigma, std::vector<do
     const TriangleSoup ears = cutBox(*readInput(data + "/bunny.obj").soup, Vec3d(-big, -big, -big), Vec3d(big, 7.5, big));
     const PictureSet sphere = pictureSet("sphere", icosphere(3), 1.0, ratios, vdbDir);
     const PictureSet bunny = pictureSet("ears", ears, sigma, ratios, vdbDir);
+    // Titles on the top row only (h / w_μ, one per column): the ears' mesh reaches the top of its panels.
     std::vector<RenderPanel> panels;
-    auto title = [&](const PictureSet& set, std::size_t k) {
-        std::ostringstream t;
-        t << set.name << " " << ratios[k] << " w_mu: " << set.rows[k]["voxels"].get<std::size_t>();
-        return t.str();
-    };
     for (const PictureSet* set : {&sphere, &bunny})
         for (std::size_t k = 0; k < ratios.size(); ++k) {
             RenderPanel p;
-            p.title = title(*set, k);
+            if (set == &sphere) {
+                std::ostringstream t;
+                t << "h = " << ratios[k] << " w_mu";
+                p.title = t.str();
+            }
             p.surface = &set->surfaces[k].mesh, p.array = "mu", p.colormap = Colormap::Magma;
             panels.push_back(p);
         }
     for (std::size_t k = 0; k < ratios.size(); ++k) {
         RenderPanel p;
-        p.title = "ears, slice y = 8.5";
         p.sliceGrid = bunny.surfaces[k].mu.get(), p.slice = {1, 8.5}, p.colormap = Colormap::Magma;
         panels.push_back(p);
     }
     RenderOptions ro;
     ro.columns = int(ratios.size());
-    ro.panelWidth = 200, ro.panelHeight = 190;  // 6 columns: a picture of < 300 kB for docs/images
+    ro.panelWidth = 180, ro.panelHeight = 165;  // 6 columns: a picture of < 300 kB for docs/images
     ro.azimuth = 60, ro.elevation = 20;
     std::ostringstream caption;
-    caption << "mu on the mean surface (titles: h / w_mu and band voxels) of the unit-sphere soup, sigma = 1 l, and of "
-            << "the bunny's ears (y > 7.5), sigma = " << sigma << " l; mu on a slice through the ears";
+    caption << "rows: mu on the mean surface of the unit-sphere soup (sigma 1 l), of the bunny's ears (y > 7.5, sigma "
+            << sigma << " l), and on the slice y = 8.5 through the ears";
     ro.caption = caption.str();
     if (!png.empty()) renderPng(panels, ro, png);
     auto json = [](const PictureSet& set, const std::string& input, double s) {
