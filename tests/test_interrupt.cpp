@@ -237,6 +237,12 @@ TEST_CASE("interrupt: SIGINT and SIGTERM stop every long command within a second
             }
             WARN(name << ": signal " << sig << " at " << delay << " s, exit " << s.code << " after " << s.latency << " s");
             worst = std::max(worst, s.latency);
+            if (s.code == 0 && s.latency < 0.1) {
+                // It finished between the last poll and the signal (the run takes about as long as the delay): a
+                // complete run, so its outputs must all be there.
+                CHECK((fs::exists(json) || fs::exists(fs::path(dir) / "report.json")));
+                continue;
+            }
             if (s.err.find("does not poll") != std::string::npos) WARN(name << ": stopped by the watchdog, not by a poll");
             CHECK(s.code == 128 + sig);
             CHECK(s.latency < 1.5);  // the promise is 1 s; margin for a loaded CI machine

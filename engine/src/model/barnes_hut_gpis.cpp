@@ -9,10 +9,6 @@
 
 namespace gpisvdb {
 
-namespace {
-constexpr int kMaxDepth = 48;  // coincident samples stop splitting here
-}
-
 BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOptions& options)
     : kernel_(s), options_(options) {
     if (!(options.beta > 1) || !std::isfinite(options.beta))

@@ -9,7 +9,6 @@
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
-#include <numeric>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -357,7 +356,7 @@ void PacketTraversal::run(const BarnesHutGpis& bh, const double (*xs)[kLanes], d
         std::uint32_t node;
         LaneMask doneMean, doneCov;
     };
-    std::array<Entry, 8 * 48 + 8> stack;
+    std::array<Entry, 8 * BarnesHutGpis::kMaxDepth + 8> stack;
     int top = 0;
     stack[top++] = {0u, 0u, 0u};
     const double betaMean2 = options_.beta * options_.beta;

@@ -70,6 +70,7 @@ public:
 
 private:
     friend struct PacketTraversal;  // barnes_hut_packet.cpp
+    static constexpr int kMaxDepth = 48;  // coincident samples stop splitting here
     void split(std::uint32_t node, int depth);
     /// Appends a node over samples [begin, end) with its moments; returns its index.
     std::uint32_t addNode(std::uint32_t begin, std::uint32_t end);
