@@ -19,6 +19,15 @@ inline std::filesystem::path scratchDir() {
 
 inline std::string dataPath(const std::string& name) { return std::string(GPISVDB_DATA_DIR) + "/" + name; }
 
+/// Whether timing promises (a flag or signal stops the work within a second) are checked. Not in sanitizer
+/// builds (tools/sanitize), which run the same code 10–100× slower: there the tests run every step and check every
+/// other outcome, and report the latencies only.
+#ifdef GPISVDB_SANITIZER_BUILD
+inline constexpr bool kTimingChecked = false;
+#else
+inline constexpr bool kTimingChecked = true;
+#endif
+
 /// Every triangle with its own three vertices (a soup in the App. B sense: no shared noise).
 inline TriangleSoup unshare(const TriangleSoup& s) {
     TriangleSoup out;

@@ -7,6 +7,7 @@
 #include <array>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <random>
 #include <sstream>
 
@@ -291,6 +292,40 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
         CHECK_THAT(r.err, !Catch::Contains("Options::") && !Catch::Contains("RenderPanel::"));
         CHECK_FALSE(leftovers(out));
         CHECK_FALSE(leftovers(vdb));
+    }
+}
+
+TEST_CASE("cli: GPISVDB_PROGRESS=lines gives one line per whole percent of each stage on a piped stderr", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), vdb = temp("progress.vdb");
+    const std::string args = " green " + bunny + " --source 0.5,6,1 --voxel-size 0.3 -o " + vdb;
+    const Run plain = runShell(std::string(GPISVDB_EXE) + args);
+    REQUIRE(plain.code == 0);
+    CHECK(plain.err.find("gpisvdb-progress") == std::string::npos);  // piped stderr: no bar, no lines
+    const Run quiet = runShell("GPISVDB_PROGRESS=lines " + std::string(GPISVDB_EXE) + args + " --quiet");
+    REQUIRE(quiet.code == 0);
+    CHECK(quiet.err.find("gpisvdb-progress") == std::string::npos);  // --quiet wins
+    const Run r = runShell("GPISVDB_PROGRESS=lines " + std::string(GPISVDB_EXE) + args);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    std::map<std::string, std::vector<int>> percents;  // per stage, in order
+    std::istringstream in(r.err);
+    for (std::string line; std::getline(in, line);) {
+        std::istringstream words(line);
+        std::string tag, stage;
+        int percent = -1;
+        if (!(words >> tag >> stage >> percent) || tag != "gpisvdb-progress") continue;
+        std::string rest;
+        CHECK_FALSE(words >> rest);  // exactly three words
+        CHECK((percent >= 0 && percent <= 100));
+        auto& seen = percents[stage];
+        CHECK((seen.empty() || seen.back() != percent));  // one line per change, not per report
+        seen.push_back(percent);
+    }
+    CHECK(percents.count("band") == 1);
+    CHECK(percents.count("solve") == 1);  // the Green's function's PCG
+    for (const auto& [stage, seen] : percents) {
+        INFO(stage);
+        CHECK(seen.back() == 100);
     }
 }
 
@@ -1143,5 +1178,6 @@ TEST_CASE("cli: the report warns when beta, the QMC count or the anisotropy cap 
     // The exact model and the regression model have no β: no β warning.
     r = run("band " + bunny + small + " --beta 3 --exact --quiet");
     REQUIRE(r.code == 0);
-    for (const auto& w : nlohmann::json::parse(std::ifstream(json))["warnings"]) CHECK(w.get<std::string>().find("--beta") == std::string::npos);
+    const nlohmann::json exactReport = nlohmann::json::parse(std::ifstream(json));  // must outlive the loop
+    for (const auto& w : exactReport["warnings"]) CHECK(w.get<std::string>().find("--beta") == std::string::npos);
 }

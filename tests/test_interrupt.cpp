@@ -81,7 +81,7 @@ TEST_CASE("interrupt: buildBand stops within a second of the flag, inside a leve
         CHECK_THROWS_AS(buildBand(model, samples, o, t.progress()), Cancelled);
         const double latency = since(t.setAt);
         WARN("buildBand: flag at " << at << " s, stopped " << latency << " s later");
-        CHECK(latency < 1.0);
+        if (test::kTimingChecked) CHECK(latency < 1.0);
     }
 }
 
@@ -145,7 +145,7 @@ TEST_CASE("interrupt: the PCG, fast marching and the eigen solver stop at the fl
         } catch (const Cancelled&) {
             const double latency = since(t.setAt);
             WARN("PCG over " << big.size() << " voxels: stopped " << latency << " s after the flag");
-            CHECK(latency < 1.0);
+            if (test::kTimingChecked) CHECK(latency < 1.0);
         }
     }
 }
@@ -211,21 +211,26 @@ TEST_CASE("interrupt: SIGINT and SIGTERM stop every long command within a second
     const std::string bunny = test::dataPath("bunny.obj");
     const std::string vdb = temp("sig.vdb"), json = temp("sig.json"), png = temp("sig.png"), dir = temp("sig_demo");
     const std::string data = temp("sig.csv", "0,6,0,1\n");
-    // Voxel size 0.25: the band takes ~1-4 s (model, resolution, BFS levels), then the task's own stage.
-    const std::string small = " --voxel-size 0.25 -o " + vdb + " --report " + json + " --quiet";
+    // Voxel sizes chosen so that each run takes 3-10 s on an idle 2-core machine (measured): every signal moment
+    // lands in the band's levels or the task's own stage, not after the run has finished.
+    const auto at = [&](const char* voxelSize) {
+        return std::string(" --voxel-size ") + voxelSize + " -o " + vdb + " --report " + json + " --quiet";
+    };
     const std::vector<std::pair<std::string, std::string>> commands = {
-        {"band", "band " + bunny + " -o " + vdb + " --report " + json + " --quiet"},  // default size: ~1 min
-        {"green", "green " + bunny + " --source 0.5,6,1" + small},
-        {"geodesic", "geodesic " + bunny + " --source 0.5,6,1" + small},
-        {"spectrum", "spectrum " + bunny + " -k 40" + small},
-        {"hodge", "hodge " + bunny + " --preset mixed" + small},
-        {"distance", "distance " + bunny + " --alpha 20" + small},
-        {"regress", "regress " + bunny + " --data " + data + small},
+        {"band", "band " + bunny + " -o " + vdb + " --report " + json + " --quiet"},  // default size: ~10 s
+        {"green", "green " + bunny + " --source 0.5,6,1" + at("0.08")},
+        {"geodesic", "geodesic " + bunny + " --source 0.5,6,1" + at("0.08")},
+        {"spectrum", "spectrum " + bunny + " -k 40" + at("0.12")},
+        {"hodge", "hodge " + bunny + " --preset mixed" + at("0.1")},
+        {"distance", "distance " + bunny + " --alpha 20" + at("0.25")},
+        {"regress", "regress " + bunny + " --data " + data + at("0.2")},
         {"demo", "demo -o " + dir + " --quiet"},
     };
-    const std::vector<std::pair<int, double>> moments = {{SIGINT, 0.3}, {SIGTERM, 1.0}, {SIGINT, 2.0}, {SIGTERM, 2.0}};
+    const std::vector<std::pair<int, double>> moments = {{SIGINT, 0.3}, {SIGTERM, 0.6}, {SIGINT, 1.0},
+                                                         {SIGTERM, 1.5}, {SIGINT, 2.0}, {SIGTERM, 2.5}};
     double worst = 0;
     for (const auto& [name, args] : commands) {
+        int inFlight = 0;  // signals that found the command still running
         for (const auto& [sig, delay] : moments) {
             INFO(name << " signal " << sig << " after " << delay << " s");
             fs::remove(vdb), fs::remove(json), fs::remove_all(dir);
@@ -235,6 +240,7 @@ TEST_CASE("interrupt: SIGINT and SIGTERM stop every long command within a second
                 CHECK(s.code == 0);
                 continue;
             }
+            ++inFlight;
             WARN(name << ": signal " << sig << " at " << delay << " s, exit " << s.code << " after " << s.latency << " s");
             worst = std::max(worst, s.latency);
             if (s.code == 0 && s.latency < 0.1) {
@@ -245,11 +251,13 @@ TEST_CASE("interrupt: SIGINT and SIGTERM stop every long command within a second
             }
             if (s.err.find("does not poll") != std::string::npos) WARN(name << ": stopped by the watchdog, not by a poll");
             CHECK(s.code == 128 + sig);
-            CHECK(s.latency < 1.5);  // the promise is 1 s; margin for a loaded CI machine
+            if (test::kTimingChecked) CHECK(s.latency < 1.5);  // the promise is 1 s; margin for a loaded CI machine
             CHECK_FALSE(leftovers(vdb));
             CHECK_FALSE(leftovers(json));
             CHECK_FALSE(directoryLeftovers(dir));
         }
+        INFO(name << " finished before " << moments.size() - inFlight << " of the " << moments.size() << " signals");
+        CHECK(inFlight >= 3);  // otherwise the command is too small to test its cancellation
     }
     // render alone takes well under a second on these inputs; the demo covers it (its pictures are its last stage).
     WARN("worst latency " << worst << " s");

@@ -116,7 +116,11 @@ TEST_CASE("repository: bench/run --dry-run names only programs and files that ex
             const std::string& word = w[i];
             INFO(line << ": " << word);
             if (word.rfind("build/bin/", 0) == 0) {
+#ifdef GPISVDB_SANITIZER_BUILD
+                CHECK(fs::exists(kSource / "bench" / (word.substr(10) + ".cpp")));  // sanitizer builds leave bench/ out
+#else
                 CHECK(fs::exists(fs::path(GPISVDB_BINARY_DIR) / "bin" / word.substr(10)));  // a target of this build
+#endif
             } else if (i > 0 && w[i - 1] == "--data") {
                 CHECK(fs::is_directory(kSource / word));
                 CHECK(fs::exists(kSource / word / "bunny.obj"));

@@ -1,5 +1,9 @@
 #include "common.h"
 
+#include <poll.h>
+#include <pthread.h>
+#include <signal.h>
+#include <sys/signalfd.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -8,9 +12,11 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <random>
 #include <set>
@@ -29,10 +35,16 @@ std::atomic<bool> gInterrupted{false};
 std::atomic<int> gSignal{0};  // the first SIGINT or SIGTERM
 int gWakeWrite = -1;          // the watchdog's pipe: written by the handler (write is async-signal-safe)
 
-extern "C" void onSignal(int sig) {
+void noteSignal(int sig) {
     int none = 0;
     gSignal.compare_exchange_strong(none, sig);
     gInterrupted = true;
+}
+
+// Fallback only: every thread of ours blocks SIGINT and SIGTERM (installInterruptHandler), so this runs only if a
+// library started a thread before main that leaves them unblocked.
+extern "C" void onSignal(int sig) {
+    noteSignal(sig);
     if (gWakeWrite >= 0) {
         const char c = 1;
         [[maybe_unused]] const ssize_t ignored = ::write(gWakeWrite, &c, 1);
@@ -74,10 +86,13 @@ void unregisterTemporary(const std::string& path, bool directory) {
 /// After a signal the work stops by itself within a few hundred milliseconds (the engine polls); a step that does
 /// not poll (a CHOLMOD factorization, a VTK render, a large file write) would keep the user waiting, so past the
 /// grace period this thread removes the temporaries and ends the process with the same exit code.
-void watchdog(int wakeRead) {
-    char c;
-    while (::read(wakeRead, &c, 1) < 0 && errno == EINTR) {
+void watchdog(int signals, int wakeRead) {
+    pollfd fds[2] = {{signals, POLLIN, 0}, {wakeRead, POLLIN, 0}};
+    while (::poll(fds, 2, -1) < 0 && errno == EINTR) {
     }
+    signalfd_siginfo info;
+    if ((fds[0].revents & POLLIN) && ::read(signals, &info, sizeof info) == ssize_t(sizeof info))
+        noteSignal(int(info.ssi_signo));
     std::this_thread::sleep_for(std::chrono::milliseconds(kInterruptGraceMs));
     Temporaries& t = temporaries();
     t.mutex.lock();  // held until _exit: no output can be registered, committed or left behind meanwhile
@@ -102,13 +117,26 @@ std::string& commandLine() {
 }
 
 void installInterruptHandler() {
+    // SIGINT and SIGTERM are blocked in this thread and so in every thread started after it (TBB's workers
+    // included), and received synchronously by the watchdog through a signalfd. No handler of ours then runs
+    // asynchronously, and none that a library installs for a while can take them: METIS (ordering the eigen
+    // solver's Cholesky factor) replaces the SIGTERM handler during its run and longjmps out of its own, which
+    // swallowed the signal, or would crash on another thread.
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set, nullptr);
+    const int signals = ::signalfd(-1, &set, SFD_CLOEXEC);
     int fds[2];
-    if (::pipe(fds) == 0) {
+    if (signals >= 0 && ::pipe(fds) == 0) {
         gWakeWrite = fds[1];
-        std::thread(watchdog, fds[0]).detach();
+        std::thread(watchdog, signals, fds[0]).detach();
+        std::signal(SIGINT, onSignal);
+        std::signal(SIGTERM, onSignal);
+    } else {
+        pthread_sigmask(SIG_UNBLOCK, &set, nullptr);  // no watchdog: the signals keep their default action
     }
-    std::signal(SIGINT, onSignal);
-    std::signal(SIGTERM, onSignal);
 }
 bool interruptRequested() { return gInterrupted; }
 int interruptSignal() { return gSignal; }
@@ -310,7 +338,24 @@ void AtomicDirectory::commit() {
 Progress makeProgress(bool quiet) {
     Progress p;
     p.interrupted = [] { return interruptRequested(); };
-    if (quiet || !isatty(STDERR_FILENO)) return p;
+    if (quiet) return p;
+    if (!isatty(STDERR_FILENO)) {
+        // For programs that run gpisvdb and show its progress themselves (the Blender add-on): one line per whole
+        // percent, "gpisvdb-progress STAGE PERCENT", only when asked for (docs/guide.md#progress-for-other-programs).
+        const char* mode = std::getenv("GPISVDB_PROGRESS");
+        if (!mode || std::string(mode) != "lines") return p;
+        auto last = std::make_shared<std::pair<std::string, int>>("", -1);
+        auto lock = std::make_shared<std::mutex>();
+        p.report = [last, lock](const std::string& stage, double f) {
+            const int percent = int(std::clamp(f, 0.0, 1.0) * 100);
+            std::lock_guard<std::mutex> guard(*lock);
+            if (stage == last->first && percent == last->second) return;
+            *last = {stage, percent};
+            std::fprintf(stderr, "gpisvdb-progress %s %d\n", stage.c_str(), percent);
+            std::fflush(stderr);
+        };
+        return p;
+    }
     p.report = [](const std::string& stage, double f) {
         const int width = 30, filled = int(f * width + 0.5);
         std::fprintf(stderr, "\r%-10s [%s%s] %3d%%", stage.c_str(), std::string(std::size_t(filled), '#').c_str(),

@@ -80,9 +80,10 @@ std::string& commandLine();
 /// parentheses when the message does not spell the field; fields without a flag are left as they are.
 std::string errorMessage(const Error& error);
 
-/// Installs the Ctrl-C handler (sets a flag the Progress polls).
-/// SIGINT and SIGTERM set the flag; a watchdog thread ends the process kInterruptGraceMs after the signal if the
-/// work has not stopped by then (removing every AtomicOutput/AtomicDirectory temporary), with 128 + the signal.
+/// Sets up Ctrl-C and SIGTERM handling; call first in main, before any thread starts (they inherit the blocked
+/// signals). SIGINT and SIGTERM set a flag the Progress polls; a watchdog thread ends the process kInterruptGraceMs
+/// after the signal if the work has not stopped by then (removing every AtomicOutput/AtomicDirectory temporary),
+/// with 128 + the signal. Child processes must unblock the signals (headless_display.cpp does for Xvfb).
 void installInterruptHandler();
 bool interruptRequested();
 /// The first signal received (SIGINT or SIGTERM), 0 if none: main returns 128 + it.

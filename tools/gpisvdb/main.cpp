@@ -10,6 +10,7 @@
 
 int main(int argc, char** argv) {
     using namespace gpisvdb;
+    cli::installInterruptHandler();  // before any thread starts
     CLI::App app{"gpisvdb: geometry processing on Gaussian Process Implicit Surfaces (GPIS), on OpenVDB"};
     app.set_version_flag("--version", std::string("gpisvdb ") + GPISVDB_VERSION);
     app.require_subcommand(1);
@@ -40,7 +41,6 @@ int main(int argc, char** argv) {
         app.exit(e);
         return 2;
     }
-    cli::installInterruptHandler();
     try {
         action();
     } catch (const Cancelled&) {

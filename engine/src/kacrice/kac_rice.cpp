@@ -46,6 +46,8 @@ void finish(double norms, const Mat3d& outer, const QmcRule& rule, SurfaceDensit
 // order. As in the Barnes–Hut packets (barnes_hut_packet.cpp), one clone per instruction set and no FMA
 // contraction (-ffp-contract=off for this file), so every CPU gives the same bits.
 #ifdef GPISVDB_PACKET_CLONES
+#elif defined(__SANITIZE_THREAD__)
+#define GPISVDB_PACKET_CLONES  // one clone: ThreadSanitizer crashes in an ifunc resolver (barnes_hut_packet.cpp)
 #elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define GPISVDB_PACKET_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #else

@@ -325,6 +325,10 @@ GPISVDB_LANES_INLINE void sample(const Vec3d& w, double var, const Sym3& N, cons
 // already does between CPUs with and without FMA).
 #ifdef GPISVDB_PACKET_CLONES
 // defined by the build (empty: one clone, for comparisons)
+#elif defined(__SANITIZE_THREAD__)
+// ThreadSanitizer instruments the clones' ifunc resolver, which the loader runs before the sanitizer's runtime is
+// set up (the executable crashed at load): one clone there (the same code, at the baseline instruction set).
+#define GPISVDB_PACKET_CLONES
 #elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define GPISVDB_PACKET_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #else

@@ -58,6 +58,9 @@ std::string startXvfb() {
         // Own process group: a Ctrl-C meant for us must not stop the server while VTK still draws on it.
         setpgid(0, 0);
         prctl(PR_SET_PDEATHSIG, SIGTERM);
+        sigset_t none;  // the CLI blocks SIGINT and SIGTERM in all its threads; the server must obey them
+        sigemptyset(&none);
+        sigprocmask(SIG_SETMASK, &none, nullptr);
         close(fds[0]);
         const int devnull = open("/dev/null", O_RDWR);
         dup2(devnull, STDIN_FILENO);

@@ -26,6 +26,8 @@
 #include <vtkTubeFilter.h>
 #include <vtkWindowToImageFilter.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -317,6 +319,12 @@ void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, c
     for (const RenderPanel& p : panels)
         if (bool(p.surface) == bool(p.sliceGrid))
             throw ParameterError("a picture panel shows either a surface or a slice");
+    // Refused before rendering: cheaper, and VTK's PNG writer leaks libpng's structures on its own error path.
+    const std::filesystem::path folder = std::filesystem::path(path).has_parent_path()
+                                             ? std::filesystem::path(path).parent_path() : ".";
+    if (!std::filesystem::is_directory(folder) || access(folder.c_str(), W_OK) != 0)
+        throw OutputError(path + ": cannot write the PNG (the folder " + folder.string() +
+                          " does not exist or is not writable)");
     const int columns = o.columns > 0 ? std::min<int>(o.columns, int(panels.size())) : int(panels.size());
     const int rows = (int(panels.size()) + columns - 1) / columns;
     const int caption = o.caption.empty() ? 0 : kCaptionHeight;
