@@ -18,7 +18,7 @@ namespace {
 constexpr std::size_t kGrain = 4096;
 constexpr int kMaxRestarts = 8;  // restarts from the true residual before a solve is reported as stagnating
 // Refinement: the inner solves' relative tolerance. Loose enough that float reaches it on every band measured
-// (floors 2.6e-7 … 3.3e-6), tight enough that 1e-10 takes two or three outer steps; each step restarts the Krylov
+// (floors 2.6e-7 … 1.6e-6), tight enough that 1e-10 takes two or three outer steps; each step restarts the Krylov
 // space, so fewer, longer inner solves cost fewer iterations in all (docs/operators.md#pcg, bench_solve).
 constexpr double kInnerTolerance = 1e-5;
 // An outer step that does not halve the residual has met double's own floor (or an inner solve that failed).

@@ -7,12 +7,12 @@
 // apart, so while the true one misses the tolerance the iteration restarts from it (at most 8 times, and only while
 // each restart halves it). Stops there or after maxIterations. Deterministic for any thread count.
 //
-// Below what float storage reaches (≈ 3e-7 … 3e-6 relative, measured: docs/operators.md#pcg) the solver switches to
+// Below what float storage reaches (2.6e-7 … 1.6e-6 relative, measured: docs/operators.md#pcg) the solver switches to
 // mixed-precision iterative refinement (docs/math.md#pcg): the solution x and the residual r = b − A x are held and
 // computed in double (the operator's double apply: the same float weights, nothing rounded), and each outer step
 // solves the correction A d = r by the float PCG above to a loose relative tolerance (1e-5), then x += d in double.
-// Each step shrinks the residual by about that factor, so 1e-10 takes 2–3 steps, each about as long as a plain
-// solve to 1e-5. Extra memory, allocated at the first refined solve and kept: 16 bytes per unknown (r in double, the
+// Each step shrinks the residual by about that factor, so 1e-10 takes 2–3 steps: ×1.8–1.9 the iterations of a float
+// solve to 1e-6 on the bunny (docs/benchmarks.md#pcg-tolerances). Extra memory, allocated at the first refined solve and kept: 16 bytes per unknown (r in double, the
 // correction's right-hand side and solution in float), plus 8 for x in double when the caller hands it in float.
 #include <memory>
 #include <vector>
@@ -28,11 +28,11 @@ enum class Preconditioner {
                          ///< iterations, serial set-up and triangular solves
 };
 
-/// Smallest tolerance accepted: double's rounding of b − A x (≈ 1e-16 · ‖A‖ ‖x‖ / ‖b‖) sits 2–3 decades below it
-/// on the bands measured (docs/operators.md#pcg).
+/// Smallest tolerance accepted: met on every band measured (4.8e-13 on the bunny bands); below it double's own
+/// rounding of b − A x (≈ 1e-16 · ‖A‖ ‖x‖ / ‖b‖) comes within reach of the tolerance.
 constexpr double kMinPcgTolerance = 1e-12;
-/// Tolerances from here up are first tried by the float PCG alone (its floor was measured at 2.6e-7 … 3.3e-6 on
-/// real bands; a stall there still falls back to refinement); tighter ones are refined from the start.
+/// Tolerances from here up are first tried by the float PCG alone (its floor was measured at 2.6e-7 … 1.6e-6 on
+/// real bands; a stall above the tolerance still falls back to refinement); tighter ones are refined from the start.
 constexpr double kFloatPcgReach = 1e-6;
 
 enum class Refinement {

@@ -19,7 +19,7 @@ namespace gpisvdb {
 
 struct HodgeOptions {
     /// PCG on K (Jacobi). 1e-5 by default: the right-hand side is a divergence, a difference of much larger terms,
-    /// and the float PCG alone stalls near 1e-6 on real bands (measured on the bunny; 3.3e-6 on a unit sphere at
+    /// and the float PCG alone stalls near 1e-6 on real bands (measured on the bunny; 1.6e-6 on a unit sphere at
     /// σ_rel 0.25, h 0.03). Where it stalls above the tolerance, or the tolerance is below kFloatPcgReach, the
     /// solve continues by iterative refinement in double (solve/pcg.h), with the right-hand side and ψ in double.
     PcgOptions solver{1e-5};
