@@ -391,7 +391,7 @@ TEST_CASE("pcg: refined solves are identical for 1 and 2 threads", "[pcg]") {
     CHECK(x1 == x2);
 }
 
-TEST_CASE("pcg: a second refined solve allocates nothing of size N; tolerances below 1e-12 are refused", "[pcg]") {
+TEST_CASE("pcg: a second refined solve allocates nothing of size N, and tolerances below 1e-12 are refused", "[pcg]") {
     const Band& band = test::torusGapBand();
     const std::size_t n = band.size();
     const LaplacianOperator L(band);
