@@ -1,7 +1,8 @@
 // Operators and solvers (operators issue): paper Sec. 9 table on the bunny (band + operators, CG), our PCG
 // against Eigen's ConjugateGradient and OpenVDB's math::pcg::solve on the same system and tolerance, operator
-// applications per second, Jacobi against incomplete Cholesky, bytes per band voxel.
-// Usage: bench_solve [--part table|solvers|all] [--out bench/results/solve.json] [--data DIR] [--repeat R]
+// applications per second, Jacobi against incomplete Cholesky, bytes per band voxel; tolerances below float's
+// reach: the float PCG alone against mixed-precision iterative refinement (issue 18 item 4).
+// Usage: bench_solve [--part table|solvers|tolerance|all] [--out bench/results/solve.json] [--data DIR] [--repeat R]
 #include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
 #include <chrono>
@@ -214,6 +215,45 @@ nlohmann::json secNineRow(const Problem& p, double tolerance) {
             {"cg_s", cg}, {"cg_iterations", g.solver.iterations}, {"cg_relative_residual", g.solver.relativeResidual}};
 }
 
+/// The Green's function's system L f = e_y solved to 1e-6 … 1e-12 by the float PCG alone and by refinement in
+/// double; each solution's residual recomputed independently with L assembled in double.
+nlohmann::json tolerances(const Problem& p) {
+    const Band& band = p.band;
+    const std::size_t n = band.size();
+    const LaplacianOperator L(band);
+    const SparseMatrixD Ld = assembleLaplacianDouble(band);
+    std::vector<double> b(n, 0.0);
+    b[nearestBandVoxel(band, p.source)] = 1.0;
+    const Eigen::Map<const Eigen::VectorXd> bd(b.data(), long(n));
+    nlohmann::json row = {{"input", p.name}, {"sigma_rel", p.sigma}, {"h", band.voxelSize}, {"voxels", n}, {"runs", nlohmann::json::array()}};
+    const char* names[] = {"automatic", "off", "always"};
+    for (auto [tolerance, refinement] : {std::pair{1e-6, Refinement::Off}, std::pair{1e-6, Refinement::Automatic},
+                                         std::pair{1e-6, Refinement::Always}, std::pair{1e-8, Refinement::Off},
+                                         std::pair{1e-8, Refinement::Automatic}, std::pair{1e-10, Refinement::Automatic},
+                                         std::pair{1e-12, Refinement::Automatic}}) {
+        PcgOptions o;
+        o.tolerance = tolerance;
+        o.maxIterations = 100000;
+        o.refinement = refinement;
+        std::vector<double> x;
+        PcgResult r;
+        const double s = median([&] {
+            x.clear();
+            r = PcgSolver(L, o).solve(b, x);
+        });
+        const Eigen::Map<const Eigen::VectorXd> xd(x.data(), long(n));
+        const nlohmann::json run = {{"tolerance", tolerance}, {"refinement", names[int(refinement)]}, {"median_s", s},
+                                    {"iterations", r.iterations}, {"refinements", r.refinements},
+                                    {"inner_iterations", r.innerIterations}, {"restarts", r.restarts},
+                                    {"converged", r.converged}, {"relative_residual", r.relativeResidual},
+                                    {"true_relative_residual", (bd - Ld * xd).norm() / bd.norm()},
+                                    {"float_rounded_residual", r.floatResidual}};
+        std::cout << run.dump() << std::endl;
+        row["runs"].push_back(run);
+    }
+    return row;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -225,11 +265,11 @@ int main(int argc, char** argv) {
         else if (a == "--data" && i + 1 < argc) data = argv[++i];
         else if (a == "--repeat" && i + 1 < argc) gRepeat = std::max(1, std::stoi(argv[++i]));
         else {
-            std::cerr << "usage: bench_solve [--part table|solvers|all] [--out FILE.json] [--data DIR] [--repeat R]\n";
+            std::cerr << "usage: bench_solve [--part table|solvers|tolerance|all] [--out FILE.json] [--data DIR] [--repeat R]\n";
             return 2;
         }
     }
-    if (part != "table" && part != "solvers" && part != "all") {
+    if (part != "table" && part != "solvers" && part != "tolerance" && part != "all") {
         std::cerr << "bench_solve: unknown --part '" << part << "'\n";
         return 2;
     }
@@ -256,6 +296,15 @@ int main(int argc, char** argv) {
             const nlohmann::json row = solvers(p, 1e-6);
             std::cout << row.dump() << std::endl;
             report["solvers"].push_back(row);
+        }
+    }
+    if (part == "tolerance" || part == "all") {
+        report["tolerances"] = nlohmann::json::array();
+        for (double hScale : {1.0, 0.5}) {
+            const Problem p = bunnyBand(data, 0.5, hScale);
+            const nlohmann::json row = tolerances(p);
+            std::cout << row["voxels"] << " voxels done" << std::endl;
+            report["tolerances"].push_back(row);
         }
     }
     report.erase("preconditioners");

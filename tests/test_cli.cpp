@@ -271,7 +271,9 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
         {"hodge " + bunny + " --field /nonexistent.vdb -o " + vdb + " --voxel-size 0.4 --sigma 2", "no such file"},
         {"hodge " + bunny + " --field " + temp("notvdb.vdb", "hello") + " -o " + vdb + " --voxel-size 0.4 --sigma 2",
          "cannot be read as an OpenVDB file"},
-        {"hodge " + bunny + " --preset mixed --tolerance -1 -o " + vdb, "--tolerance"},
+        {"hodge " + bunny + " --preset mixed --tolerance -1 -o " + vdb, "--tolerance must be a finite number > 0"},
+        {"green " + bunny + " --source 0,6,0 --tolerance 0 -o " + vdb, "--tolerance must be a finite number > 0"},
+        {"green " + bunny + " --source 0,6,0 --tolerance 1e-13 -o " + vdb, "--tolerance must be >= 1e-12"},
         {"render " + vdb + " --grid mu -o " + temp("flag.png") + " --slice w=1", "slice plane (--slice): expected axis=value"},
         // Absurd requests, refused before any attempt (docs/guide.md#limits)
         {"evaluate " + temp("huge.off", "OFF\n1000000000 1 0\n0 0 0\n") + " --at " + pts + " -o " + out,
@@ -510,6 +512,43 @@ TEST_CASE("cli: green writes 'green': positive, largest at the nearest voxel to 
     std::stringstream ts;
     ts << t.rdbuf();
     CHECK_THAT(ts.str(), Catch::Contains("Name: green"));
+}
+
+TEST_CASE("cli: hodge succeeds at its default tolerance where the float PCG alone stalls", "[cli]") {
+    // The float PCG alone stalls at 1.6e-6 here (above the default 1e-6; the command failed before iterative
+    // refinement, issue 18): the solve now continues in double and meets it. About 5 s.
+    const std::string sphere = gpisvdb::test::dataPath("sphere_20k_normal.xyz");
+    const std::string vdb = temp("hodge_stall.vdb"), json = temp("hodge_stall.json");
+    const Run r = run("hodge " + sphere + " --preset mixed --sigma 0.25 --voxel-size 0.03 -o " + vdb + " --report " + json + " --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
+    const nlohmann::json& s = report["solver"];
+    INFO(s.dump());
+    CHECK(s["tolerance"].get<double>() == 1e-6);
+    CHECK(s["relative_residual"].get<double>() <= 1e-6);
+    CHECK(s["refinements"].get<int>() >= 1);
+    // The float PCG ran first (the default is within its reach) and refinement took over from its stall.
+    CHECK(s["iterations"].get<int>() > s["inner_iterations"].get<int>());
+    CHECK(s["float_residual"].get<double>() > 1e-6);
+    CHECK(s["method"].get<std::string>() == "PCG, Jacobi, refined in double");
+    // The stored float parts: divergence-free to well below the tolerance's 1e-6 (measured 4.9e-7).
+    CHECK(report["hodge"]["divergence_residual"].get<double>() < 1e-6);
+}
+
+TEST_CASE("cli: green reaches --tolerance 1e-10 by refinement and reports the float grid's own residual", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), green = temp("green_tight.json");
+    const std::string vdb = temp("green_tight.vdb");
+    const Run g = run("green " + bunny + " --source 0.5,6,1 --sigma 2 --voxel-size 0.4 --tolerance 1e-10 -o " + vdb +
+                      " --report " + green + " --quiet");
+    INFO(g.err);
+    REQUIRE(g.code == 0);
+    const nlohmann::json gs = nlohmann::json::parse(std::ifstream(green))["solver"];
+    INFO(gs.dump());
+    CHECK(gs["relative_residual"].get<double>() <= 1e-10);
+    CHECK(gs["refinements"].get<int>() >= 2);
+    CHECK(gs["float_residual"].get<double>() > gs["relative_residual"].get<double>());
+    CHECK(gs["float_residual"].get<double>() < 1e-5);
 }
 
 TEST_CASE("cli: hodge writes vec3 parts that sum to the input with the reported S-norms, and reads a field back from a .vdb", "[cli]") {

@@ -7,6 +7,7 @@
 #include "allocation_counter.h"
 #include "band_fixtures.h"
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/ops/first_order.h"
 #include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/solve/pcg.h"
 
@@ -32,8 +33,10 @@ Eigen::VectorXd directSolve(const Band& band, const std::vector<float>& b) {
 }
 
 /// ‖b − L x‖ / ‖b‖ with L straight from the stencils (paper Eq. 24), all in double: the operator the matrix-free
-/// L applies (the assembled one rounds its entries to float, which moves this residual by ~1e-6 here).
-double stencilResidual(const Band& band, const std::vector<float>& x, const std::vector<float>& b) {
+/// L applies (the assembled one rounds its entries to float, which moves this residual by ~1e-6 here). x and b
+/// in float or double; independent of the operators' own code.
+template <class X, class B>
+double stencilResidual(const Band& band, const std::vector<X>& x, const std::vector<B>& b) {
     std::vector<double> r(b.begin(), b.end());
     auto acc = band.index->getConstAccessor();
     for (std::size_t i = 0; i < band.size(); ++i) {
@@ -50,8 +53,16 @@ double stencilResidual(const Band& band, const std::vector<float>& x, const std:
         }
     }
     double num = 0, den = 0;
-    for (std::size_t i = 0; i < r.size(); ++i) num += r[i] * r[i], den += double(b[i]) * b[i];
+    for (std::size_t i = 0; i < r.size(); ++i) num += r[i] * r[i], den += double(b[i]) * double(b[i]);
     return std::sqrt(num / den);
+}
+
+PcgOptions options(double tolerance, Refinement refinement = Refinement::Automatic, int maxIterations = 50000) {
+    PcgOptions o;
+    o.tolerance = tolerance;
+    o.maxIterations = maxIterations;
+    o.refinement = refinement;
+    return o;
 }
 
 }  // namespace
@@ -178,7 +189,7 @@ TEST_CASE("pcg: reports an unconverged solve at the iteration cap", "[pcg]") {
     CHECK(truth > 1e-2);
 }
 
-TEST_CASE("pcg: the reported residual is the true one, below float's reach the solve says it did not converge", "[pcg]") {
+TEST_CASE("pcg: the reported residual is the true one, below float's reach the float PCG alone says it did not converge", "[pcg]") {
     // The recursively updated residual drifts below the true one in float storage; restarts from the true one
     // recover the tolerance where float can reach it (measured floor ≈ 4e-7 on this band).
     const Band& band = test::torusGapBand();
@@ -186,7 +197,7 @@ TEST_CASE("pcg: the reported residual is the true one, below float's reach the s
     b[band.size() / 2] = 1.0f;
     for (double tol : {1e-5, 1e-6, 1e-9}) {
         std::vector<float> x;
-        const PcgResult r = solvePcg(LaplacianOperator(band), b, x, {tol, 50000});
+        const PcgResult r = solvePcg(LaplacianOperator(band), b, x, options(tol, Refinement::Off));
         const double truth = stencilResidual(band, x, b);
         INFO("tolerance " << tol << ": " << r.iterations << " iterations, " << r.restarts << " restarts, residual " << r.relativeResidual);
         CHECK(r.relativeResidual == Approx(truth).epsilon(0.05));
@@ -213,4 +224,196 @@ TEST_CASE("pcg: a zero right-hand side gives zero, bad options and inputs are re
     std::vector<float> bad = ones;
     bad[7] = std::nanf("");
     CHECK_THROWS_AS(solvePcg(L, bad, x), Error);
+}
+
+// === Mixed-precision iterative refinement (solve/pcg.h): tolerances below float's floor
+
+namespace {
+
+std::vector<float> unitSource(const Band& band) {
+    std::vector<float> b(band.size(), 0.0f);
+    b[band.size() / 2] = 1.0f;
+    return b;
+}
+
+}  // namespace
+
+TEST_CASE("pcg: the double apply is the float apply's matrix, summed without rounding", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const std::size_t n = band.size();
+    const std::vector<float> u = test::randomField(n, 7), v = test::randomField(n, 8);
+    const std::vector<double> ud(u.begin(), u.end()), vd(v.begin(), v.end());
+    const SparseMatrixF A = assembleLaplacian(band);
+    const SparseMatrixD Ad = assembleLaplacianDouble(band);
+    const LaplacianOperator L(band);
+    const AssembledOperator assembled(A);
+    const NaiveLaplacianOperator K(band, Boundary::Neumann);
+    const Eigen::VectorXd reference = Ad * Eigen::Map<const Eigen::VectorXd>(ud.data(), long(n));
+    std::vector<double> out, outV;
+    std::vector<float> outF;
+    // Matrix-free L: the double-assembled matrix (same weights, same sums) to double's rounding, where the float
+    // apply differs by float's (≈ 6e-8 relative per entry).
+    L.apply(ud, out);
+    const double scale = reference.norm();
+    CHECK((Eigen::Map<const Eigen::VectorXd>(out.data(), long(n)) - reference).norm() <= 1e-13 * scale);
+    L.apply(u, outF);
+    const double floatError = (asDouble(outF) - reference).norm();
+    CHECK(floatError > 1e-9 * scale);
+    CHECK(floatError <= 1e-6 * scale);
+    // The assembled operator: its float entries, applied in double, to float's rounding of those entries.
+    assembled.apply(ud, out);
+    CHECK((Eigen::Map<const Eigen::VectorXd>(out.data(), long(n)) - reference).norm() <= 1e-6 * scale);
+    // K (Neumann): symmetric in double to double's rounding, uᵀ K v = vᵀ K u, and equal to its float apply to
+    // float's rounding (that one rounds its flux h³ T G u to float too).
+    K.apply(ud, out);
+    K.apply(vd, outV);
+    double uKv = 0, vKu = 0, norm = 0;
+    for (std::size_t i = 0; i < n; ++i) uKv += ud[i] * outV[i], vKu += vd[i] * out[i], norm += std::abs(ud[i] * outV[i]);
+    CHECK(std::abs(uKv - vKu) <= 1e-13 * norm);
+    K.apply(u, outF);
+    const Eigen::VectorXd Ku = Eigen::Map<const Eigen::VectorXd>(out.data(), long(n));
+    CHECK((asDouble(outF) - Ku).norm() <= 1e-5 * Ku.norm());
+}
+
+TEST_CASE("pcg: reaches 1e-8 and 1e-10 by iterative refinement where float stalls", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const LaplacianOperator L(band);
+    const std::vector<float> b = unitSource(band);
+    const std::vector<double> bd(b.begin(), b.end());
+    // Float alone stalls above 1e-7 on this band (the floor measured ≈ 4e-7).
+    {
+        std::vector<float> x;
+        const PcgResult r = solvePcg(L, b, x, options(1e-8, Refinement::Off));
+        INFO("float alone: " << r.iterations << " iterations, residual " << r.relativeResidual);
+        CHECK(!r.converged);
+        CHECK(r.refinements == 0);
+        CHECK(stencilResidual(band, x, b) > 1e-7);
+    }
+    for (double tol : {1e-8, 1e-10}) {
+        // Double API: the solution as refined; its true residual recomputed from the stencils in double.
+        std::vector<double> x;
+        const PcgResult r = solvePcg(L, bd, x, options(tol));
+        const double truth = stencilResidual(band, x, bd);
+        INFO("tolerance " << tol << ": " << r.refinements << " refinements, " << r.iterations << " iterations ("
+                          << r.innerIterations << " inner), residual " << r.relativeResidual << ", recomputed " << truth
+                          << ", float-rounded " << r.floatResidual);
+        REQUIRE(r.converged);
+        CHECK(r.refinements >= 2);
+        CHECK(r.innerIterations == r.iterations);  // refined from the start: every iteration is an inner one
+        CHECK(truth <= tol);
+        CHECK(truth == Approx(r.relativeResidual).epsilon(1e-3));
+        // Float rounding of the solution alone leaves it far above the tolerance: the reason for the double API.
+        std::vector<float> rounded(x.begin(), x.end());
+        CHECK(r.floatResidual == Approx(stencilResidual(band, rounded, b)).epsilon(1e-3));
+        CHECK(r.floatResidual > 10 * tol);
+        // Float API: the same refinement, the result rounded to float, the double solution's residual reported.
+        std::vector<float> xf;
+        const PcgResult rf = solvePcg(L, b, xf, options(tol));
+        CHECK(rf.converged);
+        CHECK(rf.relativeResidual == r.relativeResidual);
+        CHECK(xf == rounded);
+        CHECK(rf.floatResidual == Approx(stencilResidual(band, xf, b)).epsilon(1e-3));
+    }
+}
+
+TEST_CASE("pcg: a refined solution equals a double-precision sparse LDLT solve within the tolerance's error", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const std::vector<float> b = unitSource(band);
+    const std::vector<double> bd(b.begin(), b.end());
+    const Eigen::VectorXd exact = directSolve(band, b);
+    const SparseMatrixF A = assembleLaplacian(band);
+    const AssembledOperator assembled(A);
+    const LaplacianOperator L(band);
+    double last = 1;
+    for (double tol : {1e-8, 1e-10}) {
+        std::vector<double> x;
+        const PcgResult r = solvePcg(L, bd, x, options(tol));
+        REQUIRE(r.converged);
+        const double error = (Eigen::Map<const Eigen::VectorXd>(x.data(), long(x.size())) - exact).norm() / exact.norm();
+        INFO("tolerance " << tol << ": relative error " << error);
+        // ‖x − x*‖/‖x*‖ ≤ κ(L) · residual; measured 3.9e-8 at 1e-8 (residual reached 4.9e-9) and 9.5e-11 at 1e-10
+        // (5.2e-11): 20× the tolerance leaves room without hiding a solution that is off by float's 1e-7.
+        CHECK(error <= 20 * tol);
+        CHECK(error < last);
+        last = error;
+    }
+    // The incomplete Cholesky preconditioner refines too (its inner solves on the assembled operator, whose float
+    // entries differ from L's weights by float's rounding: a relative 1e-7 apart, so against the direct solve of
+    // L only to that).
+    std::vector<double> x;
+    PcgOptions o = options(1e-10);
+    o.preconditioner = Preconditioner::IncompleteCholesky;
+    const PcgResult r = solvePcg(assembled, bd, x, o);
+    CHECK(r.converged);
+    CHECK(r.refinements >= 2);
+    CHECK((Eigen::Map<const Eigen::VectorXd>(x.data(), long(x.size())) - exact).norm() <= 1e-5 * exact.norm());
+}
+
+TEST_CASE("pcg: at float-reachable tolerances the float path runs, bit-identical to refinement switched off", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const LaplacianOperator L(band);
+    const std::vector<float> b = unitSource(band);
+    for (double tol : {1e-5, 1e-6}) {
+        std::vector<float> automatic, off, always;
+        const PcgResult ra = solvePcg(L, b, automatic, options(tol));
+        const PcgResult ro = solvePcg(L, b, off, options(tol, Refinement::Off));
+        CHECK(ra.refinements == 0);
+        CHECK(ra.iterations == ro.iterations);
+        CHECK(ra.relativeResidual == ro.relativeResidual);
+        CHECK(automatic == off);
+        // Refinement forced at such a tolerance reaches it too (at least one outer step).
+        const PcgResult rr = solvePcg(L, b, always, options(tol, Refinement::Always));
+        CHECK(rr.converged);
+        CHECK(rr.refinements >= 1);
+        CHECK(stencilResidual(band, always, b) <= 2 * tol);
+    }
+}
+
+TEST_CASE("pcg: refined solves are identical for 1 and 2 threads", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const LaplacianOperator L(band);
+    std::vector<double> b(band.size(), 0.0);
+    for (std::size_t i = 0; i < b.size(); i += 97) b[i] = 1.0;
+    std::vector<double> x1, x2;
+    PcgResult r1, r2;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        r1 = solvePcg(L, b, x1, options(1e-10));
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        r2 = solvePcg(L, b, x2, options(1e-10));
+    }
+    CHECK(r1.converged);
+    CHECK(r1.iterations == r2.iterations);
+    CHECK(r1.refinements == r2.refinements);
+    CHECK(r1.relativeResidual == r2.relativeResidual);
+    CHECK(x1 == x2);
+}
+
+TEST_CASE("pcg: a second refined solve allocates nothing of size N, and tolerances below 1e-12 are refused", "[pcg]") {
+    const Band& band = test::torusGapBand();
+    const std::size_t n = band.size();
+    const LaplacianOperator L(band);
+    const std::vector<float> b = unitSource(band);
+    const PcgSolver solver(L, options(1e-9));
+    std::vector<float> x;
+    const std::size_t before = solver.memoryBytes();
+    REQUIRE(solver.solve(b, x).converged);
+    // r in double, the inner right-hand side and solution in float, x in double: 24 bytes per unknown more.
+    CHECK(solver.memoryBytes() == before + 24 * n);
+    std::fill(x.begin(), x.end(), 0.0f);
+    std::size_t large = 0;
+    PcgResult r;
+    {
+        const test::CountLargeAllocations counter(n * sizeof(float) / 4);
+        r = solver.solve(b, x);
+        large = counter.count();
+    }
+    CHECK(r.converged);
+    CHECK(r.refinements >= 2);
+    CHECK(large == 0);
+    std::vector<float> y;
+    CHECK_THROWS_AS(solvePcg(L, b, y, options(1e-13)), ParameterError);
+    CHECK_NOTHROW(PcgSolver(L, options(1e-12)));
 }

@@ -157,12 +157,33 @@ void commitReport(AtomicOutput& file, const nlohmann::json& report) {
     file.commit();
 }
 
+void checkSolverFlags(const PcgOptions& options) {
+    if (!(options.tolerance > 0) || !std::isfinite(options.tolerance))
+        throw ParameterError("--tolerance must be a finite number > 0 (a relative residual, e.g. 1e-6)");
+    if (options.tolerance < kMinPcgTolerance)
+        throw ParameterError("--tolerance must be >= " + numberText(kMinPcgTolerance) +
+                             ": below it double precision's rounding of the residual decides, not the solver");
+    if (options.maxIterations < 1) throw ParameterError("--max-iterations must be >= 1");
+}
+
 void requireConverged(const PcgResult& r, const PcgOptions& options) {
     if (r.converged) return;
     const std::string at = "the PCG stopped at relative residual " + numberText(r.relativeResidual) + " after " +
-                           std::to_string(r.iterations) + " iterations";
+                           std::to_string(r.iterations) + " iterations" +
+                           (r.refinements > 0 ? " (" + std::to_string(r.refinements) + " refinements in double)" : "");
     if (r.iterations >= options.maxIterations) throw Error(at + ": raise --max-iterations");
-    throw Error(at + ", as close as float storage gets: use --tolerance " + numberText(2 * r.relativeResidual) + " or larger");
+    // Refinement in double stalls only where the operator's own rounding in double decides (or it is not
+    // positive definite on this right-hand side): no tolerance below that can be met.
+    throw Error(at + ", where it stopped gaining: use --tolerance " + numberText(2 * r.relativeResidual) + " or larger");
+}
+
+nlohmann::json solverReport(const PcgResult& r, const PcgOptions& options) {
+    std::string method = options.preconditioner == Preconditioner::Jacobi ? "PCG, Jacobi" : "PCG, incomplete Cholesky";
+    if (r.refinements > 0) method += ", refined in double";
+    return {{"method", method}, {"iterations", r.iterations}, {"restarts", r.restarts},
+            {"refinements", r.refinements}, {"inner_iterations", r.innerIterations},
+            {"relative_residual", r.relativeResidual}, {"float_residual", r.floatResidual},
+            {"tolerance", options.tolerance}};
 }
 
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {

@@ -58,8 +58,15 @@ BandCommand startBandCommand(const std::string& input, const std::string& output
 /// Writes the JSON report into its temporary file and renames it into place.
 void commitReport(AtomicOutput& file, const nlohmann::json& report);
 
+/// Throws a ParameterError for --tolerance outside [kMinPcgTolerance, ∞) or --max-iterations < 1.
+void checkSolverFlags(const PcgOptions& options);
+
 /// Throws an Error naming the flag to change when a PCG solve stopped short of its tolerance.
 void requireConverged(const PcgResult& result, const PcgOptions& options);
+
+/// The report's `solver` section: method, iterations, restarts, refinements, inner_iterations, relative_residual
+/// (of the double solution when refined), float_residual (of the float grid written) and tolerance.
+nlohmann::json solverReport(const PcgResult& result, const PcgOptions& options);
 
 /// File metadata: version, command line, every parameter relative and absolute, input, band size and mass.
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags);

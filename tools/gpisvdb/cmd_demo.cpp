@@ -102,7 +102,7 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     auto t = Clock::now();
     const LaplacianOperator L(band);
     PcgOptions pcg;
-    pcg.tolerance = 1e-5;  // float storage stalls near 1e-6 on the widest band; pictures need far less
+    pcg.tolerance = 1e-5;  // pictures need far less than the default 1e-6
     const GreenResult green = greensFunction(band, L, kSource, pcg, progress);
     requireConverged(green.solver, pcg);
     run.greenIterations = green.solver.iterations;

@@ -33,9 +33,9 @@ void checkSize(std::size_t got, std::size_t want, const char* what) {
     if (got != want) throw Error(std::string(what) + ": the input has the wrong length for this band");
 }
 
-/// (G u)_i in double.
-template <class Acc>
-Vec3d forwardDifference(const Band& band, const float* u, std::size_t i, Acc& acc, Boundary bc) {
+/// (G u)_i in double (u float or double).
+template <class T, class Acc>
+Vec3d forwardDifference(const Band& band, const T* u, std::size_t i, Acc& acc, Boundary bc) {
     const double inv = 1.0 / band.voxelSize;
     Vec3d g;
     for (int c = 0; c < 3; ++c) {
@@ -79,6 +79,15 @@ void gradientTranspose(const Band& band, const std::vector<float>& v, std::vecto
 }
 
 void gradPhi(const Band& band, const std::vector<float>& u, std::vector<float>& out, Boundary bc) {
+    checkSize(u.size(), band.size(), "gradPhi");
+    out.resize(3 * band.size());
+    forEachVoxel(band, [&](std::size_t i, auto& acc) {
+        const Vec3d g = tensor(band, i) * forwardDifference(band, u.data(), i, acc, bc) / double(band.mu[i]);
+        for (int c = 0; c < 3; ++c) out[3 * i + std::size_t(c)] = float(g[c]);
+    });
+}
+
+void gradPhi(const Band& band, const std::vector<double>& u, std::vector<float>& out, Boundary bc) {
     checkSize(u.size(), band.size(), "gradPhi");
     out.resize(3 * band.size());
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
@@ -177,6 +186,21 @@ void NaiveLaplacianOperator::apply(const float* u, float* out) const {
     });
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
         out[i] = float(transposeDifference(band, i, acc, [&](std::size_t j, int c) { return double(flux_[3 * j + std::size_t(c)]); }, bc_));
+    });
+}
+
+void NaiveLaplacianOperator::apply(const double* u, double* out) const {
+    // The float apply rounds the flux h³ T G u to float between its two halves; the residual of iterative
+    // refinement must not, so the flux is kept in double here (3N doubles, allocated at the first call).
+    const Band& band = band_;
+    const double h3 = band.voxelSize * band.voxelSize * band.voxelSize;
+    fluxDouble_.resize(3 * band.size());
+    forEachVoxel(band, [&](std::size_t i, auto& acc) {
+        const Vec3d f = h3 * (tensor(band, i) * forwardDifference(band, u, i, acc, bc_));
+        for (int c = 0; c < 3; ++c) fluxDouble_[3 * i + std::size_t(c)] = f[c];
+    });
+    forEachVoxel(band, [&](std::size_t i, auto& acc) {
+        out[i] = transposeDifference(band, i, acc, [&](std::size_t j, int c) { return fluxDouble_[3 * j + std::size_t(c)]; }, bc_);
     });
 }
 

@@ -95,16 +95,16 @@ std::size_t LaplacianOperator::memoryBytes() const {
            schedule_->neighbour.capacity() * sizeof(std::int32_t) + schedule_->sum.capacity() * sizeof(double);
 }
 
-void LaplacianOperator::apply(const float* u, float* out) const {
-    const Band& band = band_;
+namespace {
+/// sum += L u, scattered edge by edge along the schedule (sum must hold zeros on entry). T is float or double:
+/// both read u[i] into a double, so the float and double applies run the same sums.
+template <class T>
+void scatterLaplacian(const Band& band, const detail::ScatterSchedule& scatter, const std::int32_t* nb, const T* u, double* sum) {
     const double halfH = 0.5 * band.voxelSize;
-    double* sum = schedule_->sum.data();
-    std::fill(sum, sum + band.size(), 0.0);
     // Edge (i, j = i ± e_k) of voxel i's stencil, weight w = h λ_k(i)/2: adds w (u_i − u_j) to out_i and
     // w (u_j − u_i) to out_j (j in the band) — the two halves of h (λ^e(i) + λ^e(j))/2 come from i's and j's
     // own stencils. Outside the band u_j = 0, so out_i gains w u_i alone.
-    const std::int32_t* nb = schedule_->neighbour.data();
-    detail::runScheduled(schedule_->scatter, [&](std::uint32_t begin, std::uint32_t end) {
+    detail::runScheduled(scatter, [&](std::uint32_t begin, std::uint32_t end) {
         for (std::uint32_t i = begin; i != end; ++i) {
             const VoxelStencil& st = band.stencil[i];
             const double ui = u[i];
@@ -125,9 +125,22 @@ void LaplacianOperator::apply(const float* u, float* out) const {
             sum[i] += own;
         }
     });
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, band.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+}
+}  // namespace
+
+void LaplacianOperator::apply(const float* u, float* out) const {
+    double* sum = schedule_->sum.data();
+    std::fill(sum, sum + band_.size(), 0.0);
+    scatterLaplacian(band_, schedule_->scatter, schedule_->neighbour.data(), u, sum);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, band_.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = float(sum[i]);
     });
+}
+
+void LaplacianOperator::apply(const double* u, double* out) const {
+    // The output is the accumulator itself: no rounding, and the float path's sums in the same order.
+    std::fill(out, out + band_.size(), 0.0);
+    scatterLaplacian(band_, schedule_->scatter, schedule_->neighbour.data(), u, out);
 }
 
 void LaplacianOperator::diagonal(float* out) const {

@@ -7,7 +7,10 @@
 
 namespace gpisvdb {
 
-void multiply(const SparseMatrixF& A, const float* u, float* out) {
+namespace {
+/// Rows in parallel, each summed in double in the order of its entries; Out is float or double.
+template <class In, class Out>
+void multiplyAs(const SparseMatrixF& A, const In* u, Out* out) {
     if (!A.isCompressed()) throw Error("multiply: the matrix must be compressed (call makeCompressed())");
     const int* outer = A.outerIndexPtr();
     const int* inner = A.innerIndexPtr();
@@ -16,10 +19,14 @@ void multiply(const SparseMatrixF& A, const float* u, float* out) {
         for (int i = r.begin(); i != r.end(); ++i) {
             double s = 0;
             for (int p = outer[i]; p < outer[i + 1]; ++p) s += double(value[p]) * double(u[inner[p]]);
-            out[i] = float(s);
+            out[i] = Out(s);
         }
     });
 }
+}  // namespace
+
+void multiply(const SparseMatrixF& A, const float* u, float* out) { multiplyAs(A, u, out); }
+void multiply(const SparseMatrixF& A, const double* u, double* out) { multiplyAs(A, u, out); }
 
 void multiply(const SparseMatrixF& A, const std::vector<float>& u, std::vector<float>& out) {
     out.resize(std::size_t(A.rows()));

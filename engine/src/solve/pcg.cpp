@@ -17,11 +17,19 @@ namespace {
 
 constexpr std::size_t kGrain = 4096;
 constexpr int kMaxRestarts = 8;  // restarts from the true residual before a solve is reported as stagnating
+// Refinement: the inner solves' relative tolerance. Loose enough that float reaches it on every band measured
+// (floors 2.6e-7 … 1.6e-6), tight enough that 1e-10 takes two or three outer steps; each step restarts the Krylov
+// space, so fewer, longer inner solves cost fewer iterations in all (docs/operators.md#pcg, bench_solve).
+constexpr double kInnerTolerance = 1e-5;
+// An outer step that does not halve the residual has met double's own floor (or an inner solve that failed).
+constexpr double kMinOuterGain = 0.5;
+constexpr int kMaxRefinements = 30;
 
 /// Σ a_i b_i in double; the deterministic reduction splits the same way for any thread count.
-double dot(const std::vector<float>& a, const std::vector<float>& b) {
+template <class T>
+double dot(const T* a, const T* b, std::size_t n) {
     return tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<std::size_t>(0, a.size(), kGrain), 0.0,
+        tbb::blocked_range<std::size_t>(0, n, kGrain), 0.0,
         [&](const tbb::blocked_range<std::size_t>& r, double s) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) s += double(a[i]) * double(b[i]);
             return s;
@@ -49,6 +57,10 @@ struct PcgSolver::Impl {
     std::unique_ptr<IncompleteFactor> ic; // IC
     std::vector<int> perm;                // IC: (P r)_k = r[perm[k]]
     std::vector<float> scale;             // IC: the factor's diagonal scaling S
+    // Refinement, allocated at the first refined solve and kept for the next ones
+    mutable std::vector<double> residual;  // b − A x in double
+    mutable std::vector<float> innerB, innerX;  // the correction's right-hand side r/‖r‖ and its solution
+    mutable std::vector<double> wide;      // float API: x in double; double API: x rounded to float, widened
 
     Impl(const SymmetricOperator& op, const PcgOptions& o) : A(op), options(o), n(op.size()), r(n), z(n), p(n), Ap(n) {
         if (options.preconditioner == Preconditioner::IncompleteCholesky) {
@@ -82,10 +94,126 @@ struct PcgSolver::Impl {
         ic->matrixL().adjoint().template triangularView<Eigen::Upper>().solveInPlace(y);
         for (std::size_t k = 0; k < n; ++k) z[std::size_t(perm[k])] = scale[k] * Ap[k];
     }
+
+    /// The float PCG of the header on A x = b from x (‖b‖ = bNorm > 0) to `tolerance`, at most `maxIterations`.
+    /// Progress reports log(scale · residual) / log(target): the refinement's inner solves run on r/‖r‖, and
+    /// `scale` = ‖r‖/‖b‖ maps their residual to the whole solve's.
+    PcgResult pcg(const float* b, float* x, double bNorm, double tolerance, int maxIterations, double scaleToCaller,
+                  double target, const Progress& progress) const {
+        PcgResult res;
+        // === r = b − A x, z = P⁻¹ r, p = z (also a restart, from the true residual)
+        double rz = 0;
+        auto restart = [&] {
+            A.apply(x, Ap.data());
+            forEach(n, [&](std::size_t i) { r[i] = float(double(b[i]) - double(Ap[i])); });
+            precondition();
+            std::copy(z.begin(), z.end(), p.begin());
+            rz = dot(r.data(), z.data(), n);
+            res.relativeResidual = std::sqrt(dot(r.data(), r.data(), n)) / bNorm;
+        };
+        restart();
+        int restarts = 0;
+        double lastTrue = std::numeric_limits<double>::infinity();
+        for (;;) {
+            // === CG iterations on the recursively updated residual
+            while (res.relativeResidual > tolerance && res.iterations < maxIterations) {
+                progress.checkInterrupt();  // every iteration: one flag load beside an O(n) operator
+                if (res.iterations % 16 == 0) {
+                    progress.update("solve", std::min(1.0, std::log(scaleToCaller * res.relativeResidual) / std::log(target)));
+                }
+                A.apply(p.data(), Ap.data());
+                const double pAp = dot(p.data(), Ap.data(), n);
+                if (!(pAp > 0)) throw Error("PCG: the operator is not positive definite (pᵀAp = " + std::to_string(pAp) + ")");
+                const double alpha = rz / pAp;
+                forEach(n, [&](std::size_t i) {
+                    x[i] = float(double(x[i]) + alpha * double(p[i]));
+                    r[i] = float(double(r[i]) - alpha * double(Ap[i]));
+                });
+                precondition();
+                const double rzNext = dot(r.data(), z.data(), n);
+                const double beta = rzNext / rz;
+                rz = rzNext;
+                forEach(n, [&](std::size_t i) { p[i] = float(double(z[i]) + beta * double(p[i])); });
+                ++res.iterations;
+                res.relativeResidual = std::sqrt(dot(r.data(), r.data(), n)) / bNorm;
+            }
+            // === The true residual: in float the recursive one drifts below it (measured 4–8× on the bunny), so
+            // restart from the true one while it misses the tolerance and the restarts still gain.
+            restart();
+            const bool met = res.relativeResidual <= tolerance;
+            if (met || res.iterations >= maxIterations || ++restarts > kMaxRestarts ||
+                res.relativeResidual > 0.5 * lastTrue)
+                break;
+            lastTrue = res.relativeResidual;
+        }
+        res.converged = res.relativeResidual <= tolerance;
+        res.restarts = restarts;
+        res.floatResidual = res.relativeResidual;
+        return res;
+    }
+
+    /// residual = b − A x in double; returns its norm.
+    template <class B>
+    double trueResidual(const B* b, const double* x) const {
+        residual.resize(n);
+        A.apply(x, residual.data());
+        forEach(n, [&](std::size_t i) { residual[i] = double(b[i]) - residual[i]; });
+        return std::sqrt(dot(residual.data(), residual.data(), n));
+    }
+
+    /// Mixed-precision iterative refinement of x (double) on A x = b until ‖b − A x‖ ≤ tolerance ‖b‖, adding to
+    /// `res` (which may hold a plain solve's iterations already). Outer step: r = b − A x (double apply), then the
+    /// float PCG on A d = r/‖r‖ to kInnerTolerance, then x += ‖r‖ d in double (docs/math.md#pcg).
+    template <class B>
+    void refine(const B* b, double bNorm, double* x, PcgResult& res, const Progress& progress) const {
+        innerB.resize(n);
+        innerX.resize(n);
+        const double tolerance = options.tolerance;
+        double rNorm = trueResidual(b, x);
+        res.relativeResidual = rNorm / bNorm;
+        while (res.relativeResidual > tolerance && res.iterations < options.maxIterations &&
+               res.refinements < kMaxRefinements && rNorm > 0) {
+            // The inner solve need not go further than the step that meets the tolerance (with a margin of 2
+            // for the float operator's rounding, which the double residual does not share).
+            const double innerTolerance = std::max(kInnerTolerance, 0.5 * tolerance / res.relativeResidual);
+            forEach(n, [&](std::size_t i) {
+                innerB[i] = float(residual[i] / rNorm);
+                innerX[i] = 0.0f;
+            });
+            const double innerNorm = std::sqrt(dot(innerB.data(), innerB.data(), n));
+            const PcgResult inner = pcg(innerB.data(), innerX.data(), innerNorm, innerTolerance,
+                                        options.maxIterations - res.iterations, res.relativeResidual, tolerance, progress);
+            res.iterations += inner.iterations;
+            res.innerIterations += inner.iterations;
+            res.restarts += inner.restarts;
+            ++res.refinements;
+            forEach(n, [&](std::size_t i) { x[i] += rNorm * double(innerX[i]); });
+            const double last = res.relativeResidual;
+            rNorm = trueResidual(b, x);
+            res.relativeResidual = rNorm / bNorm;
+            if (!(res.relativeResidual <= kMinOuterGain * last)) break;
+        }
+        res.converged = res.relativeResidual <= tolerance;
+    }
+
+    /// ‖b − A x̃‖ / ‖b‖ for x̃ = x rounded to float (x̃ already in `wide`, in double).
+    template <class B>
+    double floatResidualOf(const B* b, double bNorm) const {
+        return trueResidual(b, wide.data()) / bNorm;
+    }
+
+    bool refinesFromStart() const {
+        return options.refinement == Refinement::Always ||
+               (options.refinement == Refinement::Automatic && options.tolerance < kFloatPcgReach);
+    }
 };
 
 PcgSolver::PcgSolver(const SymmetricOperator& A, const PcgOptions& o) {
     if (!(o.tolerance > 0) || !std::isfinite(o.tolerance)) throw ParameterError("the PCG tolerance (PcgOptions::tolerance) must be finite and > 0", {"PcgOptions::tolerance"});
+    if (o.tolerance < kMinPcgTolerance)
+        throw ParameterError("the PCG tolerance (PcgOptions::tolerance) must be >= " + numberText(kMinPcgTolerance) +
+                                 ", near what double precision resolves of b - A x",
+                             {"PcgOptions::tolerance"});
     if (o.maxIterations < 1) throw ParameterError("the PCG iteration cap (PcgOptions::maxIterations) must be >= 1", {"PcgOptions::maxIterations"});
     impl_ = std::make_unique<Impl>(A, o);
 }
@@ -95,7 +223,8 @@ PcgSolver::~PcgSolver() = default;
 std::size_t PcgSolver::memoryBytes() const {
     const Impl& m = *impl_;
     std::size_t bytes = (m.r.capacity() + m.z.capacity() + m.p.capacity() + m.Ap.capacity() + m.invDiag.capacity() +
-                         m.scale.capacity()) * sizeof(float) + m.perm.capacity() * sizeof(int);
+                         m.scale.capacity() + m.innerB.capacity() + m.innerX.capacity()) * sizeof(float) +
+                        (m.residual.capacity() + m.wide.capacity()) * sizeof(double) + m.perm.capacity() * sizeof(int);
     if (m.ic) bytes += std::size_t(m.ic->matrixL().nonZeros()) * (sizeof(float) + sizeof(int)) + (m.n + 1) * sizeof(int);
     return bytes;
 }
@@ -103,70 +232,85 @@ std::size_t PcgSolver::memoryBytes() const {
 PcgResult PcgSolver::solve(const std::vector<float>& b, std::vector<float>& x, const Progress& progress) const {
     const Impl& m = *impl_;
     const std::size_t n = m.n;
-    auto &r = m.r, &z = m.z, &p = m.p, &Ap = m.Ap;
     if (b.size() != n) throw Error("PCG: the right-hand side's length does not match the operator");
     if (x.size() != n) x.assign(n, 0.0f);
-    PcgResult res;
-    const double bNorm = std::sqrt(dot(b, b));
+    const double bNorm = std::sqrt(dot(b.data(), b.data(), n));
     if (!std::isfinite(bNorm)) throw Error("PCG: the right-hand side is not finite");
     if (bNorm == 0) {
         std::fill(x.begin(), x.end(), 0.0f);
+        PcgResult res;
         res.converged = true;
         return res;
     }
-    // === r = b − A x, z = P⁻¹ r, p = z (also a restart, from the true residual)
-    double rz = 0;
-    auto restart = [&] {
-        m.A.apply(x.data(), Ap.data());
-        forEach(n, [&](std::size_t i) { r[i] = float(double(b[i]) - double(Ap[i])); });
-        m.precondition();
-        std::copy(z.begin(), z.end(), p.begin());
-        rz = dot(r, z);
-        res.relativeResidual = std::sqrt(dot(r, r)) / bNorm;
-    };
-    restart();
-    int restarts = 0;
-    double lastTrue = std::numeric_limits<double>::infinity();
-    for (;;) {
-        // === CG iterations on the recursively updated residual
-        while (res.relativeResidual > m.options.tolerance && res.iterations < m.options.maxIterations) {
-            progress.checkInterrupt();  // every iteration: one flag load beside an O(n) operator
-            if (res.iterations % 16 == 0) {
-                progress.update("solve", std::min(1.0, std::log(res.relativeResidual) / std::log(m.options.tolerance)));
-            }
-            m.A.apply(p.data(), Ap.data());
-            const double pAp = dot(p, Ap);
-            if (!(pAp > 0)) throw Error("PCG: the operator is not positive definite (pᵀAp = " + std::to_string(pAp) + ")");
-            const double alpha = rz / pAp;
-            forEach(n, [&](std::size_t i) {
-                x[i] = float(double(x[i]) + alpha * double(p[i]));
-                r[i] = float(double(r[i]) - alpha * double(Ap[i]));
-            });
-            m.precondition();
-            const double rzNext = dot(r, z);
-            const double beta = rzNext / rz;
-            rz = rzNext;
-            forEach(n, [&](std::size_t i) { p[i] = float(double(z[i]) + beta * double(p[i])); });
-            ++res.iterations;
-            res.relativeResidual = std::sqrt(dot(r, r)) / bNorm;
+    PcgResult res;
+    if (!m.refinesFromStart()) {
+        // === The float PCG alone: where it reaches the tolerance (or the cap), its result as it always was
+        res = m.pcg(b.data(), x.data(), bNorm, m.options.tolerance, m.options.maxIterations, 1.0, m.options.tolerance, progress);
+        if (res.converged || m.options.refinement == Refinement::Off || res.iterations >= m.options.maxIterations) {
+            progress.update("solve", 1.0);
+            return res;
         }
-        // === The true residual: in float the recursive one drifts below it (measured 4–8× on the bunny), so
-        // restart from the true one while it misses the tolerance and the restarts still gain.
-        restart();
-        const bool met = res.relativeResidual <= m.options.tolerance;
-        if (met || res.iterations >= m.options.maxIterations || ++restarts > kMaxRestarts ||
-            res.relativeResidual > 0.5 * lastTrue)
-            break;
-        lastTrue = res.relativeResidual;
+    }
+    // === Stalled above the tolerance, or asked below float's reach: refine in double from x
+    m.wide.resize(n);
+    forEach(n, [&](std::size_t i) { m.wide[i] = double(x[i]); });
+    m.refine(b.data(), bNorm, m.wide.data(), res, progress);
+    forEach(n, [&](std::size_t i) {
+        x[i] = float(m.wide[i]);
+        m.wide[i] = double(x[i]);
+    });
+    res.floatResidual = m.floatResidualOf(b.data(), bNorm);
+    progress.update("solve", 1.0);
+    return res;
+}
+
+PcgResult PcgSolver::solve(const std::vector<double>& b, std::vector<double>& x, const Progress& progress) const {
+    const Impl& m = *impl_;
+    const std::size_t n = m.n;
+    if (b.size() != n) throw Error("PCG: the right-hand side's length does not match the operator");
+    if (x.size() != n) x.assign(n, 0.0);
+    const double bNorm = std::sqrt(dot(b.data(), b.data(), n));
+    if (!std::isfinite(bNorm)) throw Error("PCG: the right-hand side is not finite");
+    PcgResult res;
+    if (bNorm == 0) {
+        std::fill(x.begin(), x.end(), 0.0);
+        res.converged = true;
+        return res;
+    }
+    if (m.options.refinement == Refinement::Off) {
+        // The float PCG alone, on b and x rounded to float (in the refinement's float buffers)
+        m.innerB.resize(n);
+        m.innerX.resize(n);
+        forEach(n, [&](std::size_t i) {
+            m.innerB[i] = float(b[i]);
+            m.innerX[i] = float(x[i]);
+        });
+        const double fNorm = std::sqrt(dot(m.innerB.data(), m.innerB.data(), n));
+        res = m.pcg(m.innerB.data(), m.innerX.data(), fNorm, m.options.tolerance, m.options.maxIterations, 1.0,
+                    m.options.tolerance, progress);
+        forEach(n, [&](std::size_t i) { x[i] = double(m.innerX[i]); });
+    } else {
+        m.refine(b.data(), bNorm, x.data(), res, progress);
+    }
+    m.wide.resize(n);
+    forEach(n, [&](std::size_t i) { m.wide[i] = double(float(x[i])); });
+    res.floatResidual = m.floatResidualOf(b.data(), bNorm);
+    if (m.options.refinement == Refinement::Off) {
+        // Against the double b: what this solve promises its caller
+        res.relativeResidual = res.floatResidual;
+        res.converged = res.relativeResidual <= m.options.tolerance;
     }
     progress.update("solve", 1.0);
-    res.converged = res.relativeResidual <= m.options.tolerance;
-    res.restarts = restarts;
     return res;
 }
 
 PcgResult solvePcg(const SymmetricOperator& A, const std::vector<float>& b, std::vector<float>& x, const PcgOptions& o,
                    const Progress& progress) {
+    return PcgSolver(A, o).solve(b, x, progress);
+}
+
+PcgResult solvePcg(const SymmetricOperator& A, const std::vector<double>& b, std::vector<double>& x,
+                   const PcgOptions& o, const Progress& progress) {
     return PcgSolver(A, o).solve(b, x, progress);
 }
 

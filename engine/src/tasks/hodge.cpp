@@ -61,14 +61,16 @@ std::vector<int> faceComponents(const Band& band, int& count) {
 }
 
 /// Removes from b its mean over each component, in double: b = Gᵀ w has zero sum per component in exact
-/// arithmetic, but the float rounding left there is a kernel component the CG can never reduce.
-void projectOntoRange(std::vector<float>& b, const std::vector<int>& label, int count) {
+/// arithmetic, but the rounding left there is a kernel component the CG can never reduce. (A float b keeps one
+/// of ≈ 1e-8 of its norm after rounding the projection: below float's floor, not below a refined tolerance.)
+template <class T>
+void projectOntoRange(std::vector<T>& b, const std::vector<int>& label, int count) {
     std::vector<double> sum(std::size_t(count), 0.0), size(std::size_t(count), 0.0);
     for (std::size_t i = 0; i < b.size(); ++i) {
         sum[std::size_t(label[i])] += b[i];
         size[std::size_t(label[i])] += 1;
     }
-    for (std::size_t i = 0; i < b.size(); ++i) b[i] = float(double(b[i]) - sum[std::size_t(label[i])] / size[std::size_t(label[i])]);
+    for (std::size_t i = 0; i < b.size(); ++i) b[i] = T(double(b[i]) - sum[std::size_t(label[i])] / size[std::size_t(label[i])]);
 }
 
 }  // namespace
@@ -103,22 +105,53 @@ HodgeResult hodgeDecomposition(const Band& band, const std::vector<float>& V, co
     const double h3 = std::pow(band.voxelSize, 3);
     std::vector<float> rhs(n);
     for (std::size_t i = 0; i < n; ++i) rhs[i] = float(h3 * double(band.mu[i]) * double(divV[i]));
+    int components = 0;
+    std::vector<int> label;
     if (options.boundary == Boundary::Neumann) {
-        int components = 0;
-        const std::vector<int> label = faceComponents(band, components);
+        label = faceComponents(band, components);
         projectOntoRange(rhs, label, components);
     }
 
     // === Solve K ψ = M D_φ V (K = Gᵀ BlockDiag(h³ T) G: SPD for Dirichlet; for Neumann semi-definite, with the
-    //     right-hand side in its range)
+    //     right-hand side in its range): the float PCG where it reaches the tolerance, else refinement in double
+    //     (solve/pcg.h) on a right-hand side and a ψ held in double.
     const NaiveLaplacianOperator K(band, options.boundary);
     r.potential.assign(n, 0.0f);
     const double rhsNorm = massWeightedNorm(band, divV);
-    if (rhsNorm > 0) r.solver = solvePcg(K, rhs, r.potential, options.solver, progress);
-    else r.solver.converged = true;
+    const PcgOptions& so = options.solver;
+    const bool refineFromStart = so.refinement == Refinement::Always ||
+                                 (so.refinement == Refinement::Automatic && so.tolerance < kFloatPcgReach);
+    bool refine = rhsNorm > 0 && refineFromStart;
+    if (rhsNorm > 0 && !refineFromStart) {
+        PcgOptions plain = so;
+        plain.refinement = Refinement::Off;
+        r.solver = solvePcg(K, rhs, r.potential, plain, progress);
+        // Stalled above the tolerance (float's floor, not the cap): continue in double from this ψ.
+        refine = !r.solver.converged && r.solver.iterations < so.maxIterations && so.refinement != Refinement::Off;
+    } else if (rhsNorm == 0) {
+        r.solver.converged = true;
+    }
+    std::vector<double> psi;
+    if (refine) {
+        // The right-hand side again, rounded once and projected in double: the float one's rounding leaves a kernel
+        // component (see projectOntoRange) that would stop the refinement near 1e-8.
+        std::vector<double> rhsD(n);
+        for (std::size_t i = 0; i < n; ++i) rhsD[i] = h3 * double(band.mu[i]) * double(divV[i]);
+        if (options.boundary == Boundary::Neumann) projectOntoRange(rhsD, label, components);
+        psi.assign(r.potential.begin(), r.potential.end());
+        PcgOptions o = so;
+        o.refinement = Refinement::Always;
+        o.maxIterations = so.maxIterations - r.solver.iterations;  // ≥ 1: the plain solve stopped short of the cap
+        PcgResult refined = solvePcg(K, rhsD, psi, o, progress);
+        refined.iterations += r.solver.iterations;
+        refined.restarts += r.solver.restarts;
+        r.solver = refined;
+        for (std::size_t i = 0; i < n; ++i) r.potential[i] = float(psi[i]);
+    }
 
-    // === Parts: V_grad = G_φ ψ, V_free = V − V_grad
-    gradPhi(band, r.potential, r.gradient, options.boundary);
+    // === Parts: V_grad = G_φ ψ, V_free = V − V_grad (from ψ in double when refined: rounded once, at the end)
+    if (refine) gradPhi(band, psi, r.gradient, options.boundary);
+    else gradPhi(band, r.potential, r.gradient, options.boundary);
     r.free.resize(3 * n);
     for (std::size_t k = 0; k < 3 * n; ++k) r.free[k] = V[k] - r.gradient[k];
 

@@ -29,6 +29,8 @@ void gradientTranspose(const Band& band, const std::vector<float>& v, std::vecto
                        Boundary bc = Boundary::Dirichlet);
 /// out (3N) = G_φ u = (T/μ) G u per voxel.
 void gradPhi(const Band& band, const std::vector<float>& u, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
+/// The same from a potential held in double (a refined PCG solution, solve/pcg.h), rounded to float once, at the end.
+void gradPhi(const Band& band, const std::vector<double>& u, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
 /// out (N) = D_φ V = M⁻¹ Gᵀ (M ⊗ I) V, V of length 3N.
 void divPhi(const Band& band, const std::vector<float>& V, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
 
@@ -39,20 +41,23 @@ SparseMatrixF assembleNaiveLaplacian(const Band& band); ///< D_φ G_φ, N × N (
 
 /// K = M D_φ G_φ = Gᵀ BlockDiag(h³ T) G, symmetric positive semi-definite, uᵀ K u = h³ Σ_x (Gu)ᵀ T (Gu)
 /// (the naive discretisation of E[E_D(u)]). Holds a 3N work vector, so one object must not be applied from two
-/// threads at once. With Neumann boundaries K is only semi-definite (constants per connected component are in its
-/// kernel); the PCG still solves K ψ = b for b = Gᵀ w, which is orthogonal to that kernel.
+/// threads at once; the double apply keeps its own (3N doubles, allocated at its first call). With Neumann
+/// boundaries K is only semi-definite (constants per connected component are in its kernel); the PCG still solves
+/// K ψ = b for b = Gᵀ w, which is orthogonal to that kernel.
 class NaiveLaplacianOperator final : public SymmetricOperator {
 public:
     explicit NaiveLaplacianOperator(const Band& band, Boundary bc = Boundary::Dirichlet);
     std::size_t size() const override { return band_.size(); }
     void apply(const float* u, float* out) const override;
+    void apply(const double* u, double* out) const override;
     void diagonal(float* out) const override;
     using SymmetricOperator::apply;
 
 private:
     const Band& band_;
     Boundary bc_;
-    mutable std::vector<float> flux_;  // h³ T G u, 3N
+    mutable std::vector<float> flux_;         // h³ T G u, 3N
+    mutable std::vector<double> fluxDouble_;  // the same for the double apply (empty until its first call)
 };
 
 }  // namespace gpisvdb

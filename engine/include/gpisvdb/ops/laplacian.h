@@ -35,6 +35,8 @@ public:
     ~LaplacianOperator() override;
     std::size_t size() const override { return band_.size(); }
     void apply(const float* u, float* out) const override;
+    /// The same sums, accumulated straight into `out` (which therefore must not alias u).
+    void apply(const double* u, double* out) const override;
     void diagonal(float* out) const override;
     using SymmetricOperator::apply;
     /// Bytes held by the operator itself (neighbour indices, accumulator, schedule), beyond the band.

@@ -6,6 +6,14 @@
 // residual satisfies ‖r‖ ≤ tolerance·‖b‖, then checks the true residual b − A x: in float storage the two drift
 // apart, so while the true one misses the tolerance the iteration restarts from it (at most 8 times, and only while
 // each restart halves it). Stops there or after maxIterations. Deterministic for any thread count.
+//
+// Below what float storage reaches (2.6e-7 … 1.6e-6 relative, measured: docs/operators.md#pcg) the solver switches to
+// mixed-precision iterative refinement (docs/math.md#pcg): the solution x and the residual r = b − A x are held and
+// computed in double (the operator's double apply: the same float weights, nothing rounded), and each outer step
+// solves the correction A d = r by the float PCG above to a loose relative tolerance (1e-5), then x += d in double.
+// Each step shrinks the residual by about that factor, so 1e-10 takes 2–3 steps: ×1.8–1.9 the iterations of a float
+// solve to 1e-6 on the bunny (docs/benchmarks.md#pcg-tolerances). Extra memory, allocated at the first refined solve and kept: 16 bytes per unknown (r in double, the
+// correction's right-hand side and solution in float), plus 8 for x in double when the caller hands it in float.
 #include <memory>
 #include <vector>
 
@@ -20,16 +28,37 @@ enum class Preconditioner {
                          ///< iterations, serial set-up and triangular solves
 };
 
+/// Smallest tolerance accepted: met on every band measured (4.8e-13 on the bunny bands); below it double's own
+/// rounding of b − A x (≈ 1e-16 · ‖A‖ ‖x‖ / ‖b‖) comes within reach of the tolerance.
+constexpr double kMinPcgTolerance = 1e-12;
+/// Tolerances from here up are first tried by the float PCG alone (its floor was measured at 2.6e-7 … 1.6e-6 on
+/// real bands; a stall above the tolerance still falls back to refinement); tighter ones are refined from the start.
+constexpr double kFloatPcgReach = 1e-6;
+
+enum class Refinement {
+    Automatic,  ///< float PCG when tolerance ≥ kFloatPcgReach, refinement below it or when the float PCG stalls
+    Off,        ///< float PCG only: stops near float's floor (converged = false below it)
+    Always,     ///< refinement from the first step
+};
+
 struct PcgOptions {
-    double tolerance = 1e-6;     ///< relative residual ‖b − A x‖ / ‖b‖ to reach (> 0)
-    int maxIterations = 10000;   ///< cap (≥ 1)
+    double tolerance = 1e-6;     ///< relative residual ‖b − A x‖ / ‖b‖ to reach (≥ kMinPcgTolerance = 1e-12)
+    int maxIterations = 10000;   ///< cap on all PCG iterations of a solve, the refinement's inner ones included (≥ 1)
     Preconditioner preconditioner = Preconditioner::Jacobi;  ///< measured faster to tolerance (docs/operators.md)
+    Refinement refinement = Refinement::Automatic;  ///< when to refine in double (above)
 };
 
 struct PcgResult {
-    int iterations = 0;
-    double relativeResidual = 0;  ///< true relative residual ‖b − A x‖ / ‖b‖ at exit (reductions in double)
-    int restarts = 0;             ///< restarts from the true residual
+    int iterations = 0;           ///< all PCG iterations (float), the refinement's inner ones included
+    /// True relative residual ‖b − A x‖ / ‖b‖ at exit (reductions in double). Plain float PCG: of the float x, with
+    /// the float apply. Refined: of the solution in double, with the double apply.
+    double relativeResidual = 0;
+    int restarts = 0;             ///< restarts from the true residual (the inner solves' included)
+    int refinements = 0;          ///< outer steps of iterative refinement (0: the float PCG alone)
+    int innerIterations = 0;      ///< PCG iterations spent in the refinement's inner solves (≤ iterations)
+    /// ‖b − A x̃‖ / ‖b‖ in double for x̃ the solution rounded to float (what a float grid holds): float's rounding
+    /// of x alone leaves ≈ 1e-8 … 1e-6 here when refined. Equal to relativeResidual on the plain float path.
+    double floatResidual = 0;
     bool converged = false;       ///< relativeResidual ≤ tolerance
 };
 
@@ -41,8 +70,12 @@ public:
     explicit PcgSolver(const SymmetricOperator& A, const PcgOptions& options = {});
     ~PcgSolver();
     /// Solves A x = b; x holds the initial guess on entry (resized to N and zeroed if it has another length).
+    /// Refines in double when the options ask for it (PcgOptions::refinement) and rounds the result to float.
     PcgResult solve(const std::vector<float>& b, std::vector<float>& x, const Progress& progress = {}) const;
-    /// Bytes held by the work vectors and the preconditioner.
+    /// The same with b and x in double: the solution of a refined solve as computed, not rounded to float. Refines
+    /// unless PcgOptions::refinement is Off (then b and x are rounded to float for a plain solve and widened back).
+    PcgResult solve(const std::vector<double>& b, std::vector<double>& x, const Progress& progress = {}) const;
+    /// Bytes held by the work vectors and the preconditioner (and the refinement's, once a solve has refined).
     std::size_t memoryBytes() const;
 
 private:
@@ -52,6 +85,9 @@ private:
 
 /// One solve: PcgSolver(A, options).solve(b, x, progress).
 PcgResult solvePcg(const SymmetricOperator& A, const std::vector<float>& b, std::vector<float>& x,
+                   const PcgOptions& options = {}, const Progress& progress = {});
+/// One solve in double: PcgSolver(A, options).solve(b, x, progress).
+PcgResult solvePcg(const SymmetricOperator& A, const std::vector<double>& b, std::vector<double>& x,
                    const PcgOptions& options = {}, const Progress& progress = {});
 /// Same, on an assembled matrix.
 PcgResult solvePcg(const SparseMatrixF& A, const std::vector<float>& b, std::vector<float>& x,

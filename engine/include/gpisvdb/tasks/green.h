@@ -12,8 +12,10 @@
 namespace gpisvdb {
 
 struct GreenResult {
-    std::vector<float> values;   ///< G(·, y) by linear index
+    std::vector<float> values;   ///< G(·, y) by linear index (rounded to float when the solve refined in double)
     std::size_t sourceIndex = 0; ///< y's linear index
+    /// The solve. Below float's reach the PCG refines in double (solve/pcg.h): solver.relativeResidual is then that
+    /// of the double solution, solver.floatResidual that of `values`.
     PcgResult solver;
 };
 
