@@ -56,7 +56,8 @@ inline std::vector<Vec3d> points3(py::handle obj, const char* name, bool single 
                          ", got shape " + shapeText(a));
     const std::size_t n = flat ? 1 : std::size_t(a.shape(0));
     if (n < minRows)
-        throw InputError(std::string(name) + " needs at least " + std::to_string(minRows) + " rows, got " + std::to_string(n));
+        throw InputError(std::string(name) + " needs at least " + std::to_string(minRows) + (minRows == 1 ? " point" : " points") +
+                         ", got " + std::to_string(n));
     const double* p = a.data();
     std::vector<Vec3d> out(n);
     for (std::size_t i = 0; i < n; ++i) {
