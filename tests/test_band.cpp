@@ -3,11 +3,13 @@
 #include <tuple>
 
 #include "gpisvdb/band/build_band.h"
+#include "gpisvdb/band/default_band.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/kacrice/kac_rice.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/model/load_model.h"
 #include "gpisvdb/model/per_point.h"
 #include "gpisvdb/stencil/resolution.h"
 #include "gpisvdb/stencil/selling.h"
@@ -315,3 +317,44 @@ TEST_CASE("band: errors name the Options field, never a command-line flag", "[ba
     CHECK(fields == std::vector<std::string>{"BandOptions::qmcSamples"});
     CHECK(Error("no parameter").parameters().empty());
 }
+
+TEST_CASE("band: the default band is buildBand with u and the voxel budget resolved, and is refused past its memory limit naming the voxel size that fits", "[band]") {
+    const InputData data = readInput(test::dataPath("bunny.obj"));
+    ModelOptions mo;
+    mo.sigmaRel = 2;
+    const LoadedModel m = loadModel(data, mo);
+    REQUIRE(m.smoothing == Approx(0.4 * m.input.samples.lengthScale));
+    DefaultBandOptions o;
+    o.band.voxelSize = 0.4;
+    const DefaultBand b = buildDefaultBand(*m.model, m.input.samples, o);
+    CHECK(b.options.iso == 0.5);  // the winding model's own level
+    CHECK(b.options.voxelSize == 0.4);
+    CHECK(b.options.maxVoxels == std::size_t(b.maxMemory / kBuildBytesPerVoxel));
+    BandOptions direct = b.options;
+    const BandResult same = buildBand(*m.model, m.input.samples, direct);
+    CHECK(same.band.coord == b.result.band.coord);
+    CHECK(same.band.mu == b.result.band.mu);
+
+    o.band.voxelSize = 0;  // the default h of the resolution rule
+    o.maxMemory = 1e6;     // far too little for it
+    try {
+        buildDefaultBand(*m.model, m.input.samples, o);
+        FAIL("no MemoryLimitError");
+    } catch (const MemoryLimitError& e) {
+        const std::string what = e.what();
+        CHECK(what.find("DefaultBandOptions::maxMemory") != std::string::npos);
+        CHECK(what.find("use a voxel size (BandOptions::voxelSize) of") != std::string::npos);
+        CHECK(e.parameters() == std::vector<std::string>{"DefaultBandOptions::maxMemory", "BandOptions::voxelSize"});
+    }
+    o.maxMemory = 0;
+    o.band.etaRelative = 0;
+    CHECK_THROWS_AS(buildDefaultBand(*m.model, m.input.samples, o), ParameterError);
+    mo.smoothingRel = -1;
+    try {
+        loadModel(data, mo);
+        FAIL("no ParameterError");
+    } catch (const ParameterError& e) {
+        CHECK(e.parameters() == std::vector<std::string>{"ModelOptions::smoothingRel"});
+    }
+}
+

@@ -281,7 +281,7 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
         {"band " + temp("huge.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
                                     "element face 200000000\nproperty list uchar int vertex_indices\nend_header\n") + " -o " + vdb,
          "200000000 face elements declared, more than the 1e+08 samples"},
-        {"band " + bunny + " -o " + vdb + " --voxel-size 0.006 --sigma 2 --max-memory 1000000G", "a band can hold: use --voxel-size"},
+        {"band " + bunny + " -o " + vdb + " --voxel-size 0.006 --sigma 2 --max-memory 1000000G", "a band can hold: use a voxel size (--voxel-size) of"},
     };
     for (const Case& c : cases) {
         fs::remove(out);

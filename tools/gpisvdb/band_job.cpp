@@ -31,17 +31,6 @@ double parseBytes(const std::string& s) {
     return v;
 }
 
-double physicalMemory() { return double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE)); }
-
-/// Peak bytes per evaluated voxel while the band is built (values of the visited voxels, the frontier's model
-/// evaluations, the visited mask, then the band): measured ≈ 270 (bunny, 1.57 M evaluated voxels, peak RSS
-/// 422 MB); 400 leaves headroom.
-constexpr double kBuildBytesPerVoxel = 400;
-
-/// The most band voxels any command accepts, whatever --max-memory says: fast marching handles 5.4e8, and at
-/// ≈ 400 bytes per voxel while building, 5e8 voxels already need 200 GB.
-constexpr double kMaxBandVoxels = 5e8;
-
 /// Documented accuracy limits (docs/band.md#warnings).
 constexpr double kDocumentedBeta = 6;           // docs/model.md
 constexpr int kDocumentedQmc = 512;             // docs/band.md, μ and T
@@ -75,46 +64,19 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     const auto start = Clock::now();
     BandJob job;
     job.inputPath = data.path;
-    job.maxMemory = flags.maxMemory.empty() ? 0.5 * physicalMemory() : parseBytes(flags.maxMemory);
-    if (!(flags.band.etaRelative > 0) || !std::isfinite(flags.band.etaRelative)) throw ParameterError("--eta must be finite and > 0");
-    job.model = loadModel(data, flags.model);
+    DefaultBandOptions options;
+    options.band = flags.band;
+    options.resolutionScale = flags.resolutionScale;
+    options.maxMemory = flags.maxMemory.empty() ? 0 : parseBytes(flags.maxMemory);
+    job.model = loadModel(data, modelOptions(flags.model));
     job.secondsModel = since(start);
-
-    // === Resolution (paper Eq. 25 and μ's width)
-    ResolutionOptions ro;
-    const double iso = std::isnan(flags.band.iso) ? job.model.model->naturalIso() : flags.band.iso;
-    if (!std::isfinite(iso)) throw ParameterError("--iso must be finite");
-    ro.iso = iso;
-    ro.qmcSamples = flags.band.qmcSamples;
-    ro.resolutionScale = flags.resolutionScale;
-    ro.maxAnisotropy = flags.band.maxAnisotropy;
-    job.resolution = chooseResolution(*job.model.model, job.model.input.samples, ro, progress.interruptOnly());
-    job.options = flags.band;
-    job.options.iso = iso;
-    if (!(job.options.voxelSize > 0)) job.options.voxelSize = job.resolution.h;
-    const double h = job.options.voxelSize;
-
-    // === Estimate before allocating: area × (width where μ > η) / h³, plus the rejected shell
-    double area = 0;
-    for (const auto& w : job.model.input.samples.normal) area += w.norm();
-    const double eta = std::min(flags.band.etaRelative, 0.5);
-    const double thickness = 2.0 * job.resolution.muWidth * std::sqrt(2.0 * std::log(1.0 / eta)) + 4.0 * h;
-    const double estimate = area * thickness / (h * h * h);
-    if (!(estimate <= kMaxBandVoxels))  // absurd whatever the memory: refused before the model is evaluated
-        throw ParameterError("the band would need about " + numberText(estimate) + " voxels at voxel size " + numberText(h) +
-                             ", more than the " + numberText(kMaxBandVoxels) + " a band can hold: use --voxel-size " +
-                             numberText(h * std::cbrt(estimate / kMaxBandVoxels) * 1.1) + " or larger");
-    if (estimate * kBuildBytesPerVoxel > job.maxMemory) {
-        const double suggest = h * std::cbrt(estimate * kBuildBytesPerVoxel / job.maxMemory) * 1.1;
-        throw ParameterError("the band would need about " + numberText(estimate) + " voxels (" +
-                             numberText(estimate * kBuildBytesPerVoxel / 1e9) + " GB) at voxel size " +
-                             numberText(h) + ", more than --max-memory allows: use --voxel-size " +
-                             numberText(suggest) + " or larger");
-    }
-    job.options.maxVoxels = std::size_t(job.maxMemory / kBuildBytesPerVoxel);
     const auto tBand = Clock::now();
-    job.result = buildBand(*job.model.model, job.model.input.samples, job.options, progress);
+    DefaultBand built = buildDefaultBand(*job.model.model, job.model.input.samples, options, progress);
     job.secondsBand = since(tBand);
+    job.resolution = built.resolution;
+    job.options = built.options;
+    job.maxMemory = built.maxMemory;
+    job.result = std::move(built.result);
     job.warnings = bandWarnings(job, flags);
     if (!flags.model.quiet)
         for (const std::string& w : job.warnings) std::cerr << "warning: " << w << "\n";

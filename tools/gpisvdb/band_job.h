@@ -7,7 +7,7 @@
 #include <openvdb/openvdb.h>
 
 #include "common.h"
-#include "gpisvdb/band/build_band.h"
+#include "gpisvdb/band/default_band.h"
 #include "gpisvdb/output/write_vdb.h"
 #include "gpisvdb/solve/pcg.h"
 #include "gpisvdb/stencil/resolution.h"

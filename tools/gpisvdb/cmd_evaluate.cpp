@@ -68,7 +68,7 @@ void addEvaluate(CLI::App& app, Action& action) {
             if (!std::isnan(a->iso) && !std::isfinite(a->iso)) throw ParameterError("--iso must be finite");
             const QmcRule rule(a->qmc);
             AtomicOutput out(a->output);
-            const LoadedModel m = loadModel(data, a->flags);
+            const LoadedModel m = loadModel(data, modelOptions(a->flags));
             const double iso = std::isnan(a->iso) ? m.model->naturalIso() : a->iso;
             const auto values = m.model->evaluate(xs, makeProgress(a->flags.quiet));
             std::ofstream csv(out.tempPath());

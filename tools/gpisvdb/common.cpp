@@ -25,8 +25,6 @@
 #include <tbb/global_control.h>
 
 #include "gpisvdb/core/errors.h"
-#include "gpisvdb/model/direct_gpis.h"
-#include "gpisvdb/model/regression_gpis.h"
 
 namespace gpisvdb::cli {
 
@@ -175,6 +173,8 @@ std::string errorMessage(const Error& error) {
         {"ResolutionOptions::resolutionScale", "--resolution-scale"},
         {"ResolutionOptions::maxAnisotropy", "--max-anisotropy"},
         {"NoiseOptions::sigmaRel", "--sigma"},
+        {"ModelOptions::smoothingRel", "--smoothing"},
+        {"DefaultBandOptions::maxMemory", "--max-memory"},
         {"CloudNoiseOptions::sigmaRel", "--sigma"},
         {"SoupNoiseOptions::sigmaRel", "--sigma"},
         {"BarnesHutOptions::beta", "--beta"},
@@ -224,35 +224,18 @@ std::shared_ptr<void> limitThreads(int threads) {
     return std::make_shared<tbb::global_control>(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
 }
 
-LoadedModel loadModel(const InputData& data, const ModelFlags& flags) {
-    if (!(flags.smoothingRel > 0) || !std::isfinite(flags.smoothingRel))
-        throw ParameterError("--smoothing must be finite and > 0 (got " + std::to_string(flags.smoothingRel) + ")");
-    LoadedModel m;
-    m.input = makeSamples(data, {flags.sigmaRel});
-    m.smoothing = flags.smoothingRel * m.input.samples.lengthScale;
-    if (flags.model == "regression") {
-        // === Regression GPIS (App. F): labels generated from the samples, or read; kernel smoothing relative to
-        //     the training spacing, as the winding model's is to ℓ.
-        TrainingOptions to;
-        to.surfacePoints = flags.trainingPoints;
-        to.offsetRelative = flags.trainingOffset;
-        double spacing = 0;
-        LabelledPoints training = trainingFromSamples(m.input.samples, to, &spacing);
-        if (!flags.labels.empty()) training = readLabelledPoints(flags.labels);
-        RegressionGpisOptions ro;
-        ro.smoothing = flags.smoothingRel * spacing;
-        ro.labelNoise = flags.labelNoise;
-        m.smoothing = ro.smoothing;
-        m.trainingSize = training.size();
-        m.model = std::make_unique<RegressionGpis>(std::move(training), ro);
-    } else if (flags.exact) {
-        m.model = std::make_unique<DirectGpis>(m.input.samples, m.smoothing);
-    } else {
-        BarnesHutOptions o;
-        o.beta = flags.beta;
-        m.model = std::make_unique<BarnesHutGpis>(m.input.samples, m.smoothing, o);
-    }
-    return m;
+ModelOptions modelOptions(const ModelFlags& flags) {
+    ModelOptions o;
+    o.sigmaRel = flags.sigmaRel;
+    o.smoothingRel = flags.smoothingRel;
+    o.kind = flags.model == "regression" ? ModelKind::Regression : ModelKind::Winding;
+    o.exact = flags.exact;
+    o.barnesHut.beta = flags.beta;
+    o.training.surfacePoints = flags.trainingPoints;
+    o.training.offsetRelative = flags.trainingOffset;
+    o.labelNoise = flags.labelNoise;
+    if (o.kind == ModelKind::Regression && !flags.labels.empty()) o.labels = readLabelledPoints(flags.labels);
+    return o;
 }
 
 AtomicOutput::AtomicOutput(std::string path) : path_(std::move(path)) {

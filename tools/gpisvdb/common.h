@@ -8,6 +8,7 @@
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/model/load_model.h"
 
 namespace gpisvdb::cli {
 
@@ -30,13 +31,8 @@ void addModelFlags(CLI::App& app, ModelFlags& flags, bool withModel);
 /// Applies --threads for the life of the returned object.
 std::shared_ptr<void> limitThreads(int threads);
 
-struct LoadedModel {
-    InputSamples input;
-    double smoothing = 0;  ///< absolute s, world units
-    std::size_t trainingSize = 0;  ///< labelled points of the regression model (0: winding model)
-    std::unique_ptr<GpisModel> model;
-};
-LoadedModel loadModel(const InputData& data, const ModelFlags& flags);
+/// The engine's model options for the flags (reads --labels): pass to loadModel (gpisvdb/model/load_model.h).
+ModelOptions modelOptions(const ModelFlags& flags);
 
 /// A file written under a temporary name in the target's directory and renamed on commit(); removed
 /// if never committed (error or interrupt). Opening fails at once when the directory is not writable.

@@ -82,7 +82,7 @@ std::vector<Coord> sampleVoxels(const Samples& samples, double h) {
 
 void checkBudget(std::size_t evaluated, const BandOptions& o, double h) {
     if (o.maxVoxels && evaluated > o.maxVoxels)
-        throw ParameterError("the band needs more than " + std::to_string(o.maxVoxels) +
+        throw MemoryLimitError("the band needs more than " + std::to_string(o.maxVoxels) +
                              " voxels at voxel size " + std::to_string(h) +
                              ", beyond the voxel budget (BandOptions::maxVoxels): use a larger voxel size (BandOptions::voxelSize), e.g. " +
                              numberText(2 * h) + ", or raise the budget",

@@ -101,7 +101,7 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     factor.analyzePattern(L);
     const double needed = eigenBytes(factor.cholmod().lnz, double(n), double(ncv), double(k));
     if (options.maxBytes > 0 && needed > options.maxBytes)
-        throw ParameterError(std::to_string(k) + " eigenpairs of a band of " + std::to_string(n) + " voxels need about " +
+        throw MemoryLimitError(std::to_string(k) + " eigenpairs of a band of " + std::to_string(n) + " voxels need about " +
                              numberText(needed / 1e9) + " GB (Cholesky factor of " + numberText(factor.cholmod().lnz) +
                              " entries, Lanczos basis and vectors), more than the " + numberText(options.maxBytes / 1e9) +
                              " GB allowed (EigenOptions::maxBytes): lower the eigenpair count (EigenOptions::count), use a coarser "

@@ -14,7 +14,7 @@ GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sour
                              std::to_string(targets.size()) + " targets");
     const double bytes = double(band.size()) * kFastMarchingBytesPerVoxel;
     if (options.maxBytes > 0 && bytes > options.maxBytes)
-        throw ParameterError("fast marching over " + std::to_string(band.size()) + " voxels needs about " + numberText(bytes / 1e9) +
+        throw MemoryLimitError("fast marching over " + std::to_string(band.size()) + " voxels needs about " + numberText(bytes / 1e9) +
                              " GB beyond the band, more than the " + numberText(options.maxBytes / 1e9) +
                              " GB allowed (GeodesicOptions::maxBytes): use a voxel size (BandOptions::voxelSize) of " +
                              numberText(band.voxelSize * std::cbrt(bytes / options.maxBytes) * 1.1) + " or larger",

@@ -211,7 +211,7 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
     const double points = count.prod();
     const double cap = o.maxPoints ? double(o.maxPoints) : 2147483648.0;
     if (!(points <= cap) || (count.array() > 2e9).any())
-        throw ParameterError("the distance grid would hold " + numberText(points) + " points at grid voxel size H = " + numberText(H) +
+        throw MemoryLimitError("the distance grid would hold " + numberText(points) + " points at grid voxel size H = " + numberText(H) +
                              ", more than " + numberText(cap) + ": use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " +
                              numberText(H * std::cbrt(points / cap) * 1.01) + " or larger",
                              {"SmoothedDistanceOptions::gridVoxelSize"});

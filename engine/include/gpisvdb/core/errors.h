@@ -39,6 +39,11 @@ struct InputError : Error {
 struct ParameterError : Error {
     using Error::Error;
 };
+/// The work would need more memory than its limit allows (a band, a march, an eigen solve or a grid refused before
+/// allocating; the message names the limit and the parameter to change). A ParameterError: the fix is a parameter.
+struct MemoryLimitError : ParameterError {
+    using ParameterError::ParameterError;
+};
 /// An output could not be written.
 struct OutputError : Error {
     using Error::Error;

@@ -1,0 +1,963 @@
+// gpisvdb._core: the engine for Python (docs/python.md). Models from numpy arrays or files, the band with its
+// channels as numpy views, the tasks on a band, .vdb output. The package gpisvdb (python/gpisvdb/__init__.py)
+// re-exports everything here.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstddef>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "arrays.h"
+#include "gpisvdb/band/default_band.h"
+#include "gpisvdb/core/errors.h"
+#include "gpisvdb/input/read_input.h"
+#include "gpisvdb/kacrice/kac_rice.h"
+#include "gpisvdb/model/load_model.h"
+#include "gpisvdb/ops/laplacian.h"
+#include "gpisvdb/output/mean_surface.h"
+#include "gpisvdb/output/write_vdb.h"
+#include "gpisvdb/tasks/geodesic.h"
+#include "gpisvdb/tasks/green.h"
+#include "gpisvdb/tasks/hodge.h"
+#include "gpisvdb/tasks/matern.h"
+#include "gpisvdb/tasks/smoothed_distance.h"
+#include "gpisvdb/tasks/spectrum.h"
+#include "work.h"
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace gpisvdb::python {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// ---------------------------------------------------------------------------------------------------------------
+// Errors: the engine's typed exceptions as Python classes, its Options fields named by the keyword arguments.
+
+PyObject* gError = nullptr;
+PyObject* gInputError = nullptr;
+PyObject* gParameterError = nullptr;
+PyObject* gMemoryLimitError = nullptr;
+PyObject* gOutputError = nullptr;
+
+/// The engine names a parameter by its Options field (core/errors.h); Python users know the keyword.
+std::string pythonMessage(const Error& error) {
+    static const std::map<std::string, std::string> kKeywords = {
+        {"BandOptions::voxelSize", "voxel_size"},
+        {"BandOptions::etaRelative", "eta"},
+        {"BandOptions::iso", "iso"},
+        {"BandOptions::qmcSamples", "qmc"},
+        {"BandOptions::maxAnisotropy", "max_anisotropy"},
+        {"BandOptions::maxVoxels", "max_memory"},
+        {"DefaultBandOptions::maxMemory", "max_memory"},
+        {"ResolutionOptions::resolutionScale", "resolution_scale"},
+        {"ResolutionOptions::maxAnisotropy", "max_anisotropy"},
+        {"NoiseOptions::sigmaRel", "sigma"},
+        {"CloudNoiseOptions::sigmaRel", "sigma"},
+        {"SoupNoiseOptions::sigmaRel", "sigma"},
+        {"ModelOptions::smoothingRel", "smoothing"},
+        {"BarnesHutOptions::beta", "beta"},
+        {"TrainingOptions::surfacePoints", "training_points"},
+        {"TrainingOptions::offsetRelative", "training_offset"},
+        {"RegressionGpisOptions::labelNoise", "label_noise"},
+        {"RegressionGpisOptions::amplitude", "amplitude"},
+        {"PcgOptions::tolerance", "tolerance"},
+        {"PcgOptions::maxIterations", "max_iterations"},
+        {"EigenOptions::count", "k"},
+        {"EigenOptions::subspace", "subspace"},
+        {"EigenOptions::tolerance", "eigen_tolerance"},
+        {"EigenOptions::maxRestarts", "max_restarts"},
+        {"EigenOptions::maxBytes", "max_memory"},
+        {"MaternOptions::nu", "nu"},
+        {"MaternOptions::kappa", "kappa"},
+        {"MaternOptions::amplitude", "amplitude"},
+        {"SmoothedDistanceOptions::alpha", "alpha"},
+        {"SmoothedDistanceOptions::gridVoxelSize", "grid_voxel_size"},
+        {"SmoothedDistanceOptions::padding", "padding"},
+        {"SmoothedDistanceOptions::tolerance", "tolerance"},
+        {"SmoothedDistanceOptions::maxPoints", "max_memory"},
+        {"GeodesicOptions::maxBytes", "max_memory"},
+        {"VdbWriteOptions::halfFloat", "half"},
+    };
+    std::string text = error.what();
+    for (const std::string& field : error.parameters()) {
+        const auto kw = kKeywords.find(field);
+        if (kw == kKeywords.end()) continue;
+        for (std::size_t at = text.find(field); at != std::string::npos; at = text.find(field, at + kw->second.size()))
+            text.replace(at, field.size(), kw->second);
+    }
+    return text;
+}
+
+void translateErrors(std::exception_ptr p) {
+    try {
+        if (p) std::rethrow_exception(p);
+    } catch (const Cancelled&) {
+        PyErr_SetNone(PyExc_KeyboardInterrupt);
+    } catch (const MemoryLimitError& e) {
+        PyErr_SetString(gMemoryLimitError, pythonMessage(e).c_str());
+    } catch (const ParameterError& e) {
+        PyErr_SetString(gParameterError, pythonMessage(e).c_str());
+    } catch (const InputError& e) {
+        PyErr_SetString(gInputError, pythonMessage(e).c_str());
+    } catch (const OutputError& e) {
+        PyErr_SetString(gOutputError, pythonMessage(e).c_str());
+    } catch (const Error& e) {
+        PyErr_SetString(gError, pythonMessage(e).c_str());
+    } catch (const std::bad_alloc&) {
+        PyErr_SetString(PyExc_MemoryError, "out of memory");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Model
+
+struct Model {
+    std::shared_ptr<const LoadedModel> loaded;
+    ModelOptions options;
+    std::string source;  ///< the file, or "numpy"
+};
+
+ModelOptions modelOptions(double sigma, double smoothing, double beta, bool exact, const std::string& model,
+                          py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise) {
+    ModelOptions o;
+    o.sigmaRel = sigma;
+    o.smoothingRel = smoothing;
+    o.barnesHut.beta = beta;
+    o.exact = exact;
+    if (model == "winding") {
+        o.kind = ModelKind::Winding;
+    } else if (model == "regression") {
+        o.kind = ModelKind::Regression;
+    } else {
+        throw ParameterError("model must be 'winding' or 'regression', got '" + model + "'");
+    }
+    o.training.surfacePoints = trainingPoints;
+    o.training.offsetRelative = trainingOffset;
+    o.labelNoise = labelNoise;
+    if (!labels.is_none()) {
+        if (o.kind != ModelKind::Regression) throw ParameterError("labels are for model='regression'");
+        const auto a = realArray(labels, "labels");
+        if (!(a.ndim() == 2 && (a.shape(1) == 4 || a.shape(1) == 5) && a.shape(0) >= 1))
+            throw InputError("labels must be an n x 4 (x, y, z, label) or n x 5 (..., noise) array, got shape " + shapeText(a));
+        LabelledPoints l;
+        const std::size_t n = std::size_t(a.shape(0)), c = std::size_t(a.shape(1));
+        for (std::size_t i = 0; i < n; ++i) {
+            const double* r = a.data() + i * c;
+            for (std::size_t k = 0; k < c; ++k)
+                if (!std::isfinite(r[k])) throw InputError("labels[" + std::to_string(i) + "] is not finite");
+            if (c == 5 && r[4] < 0) throw InputError("labels[" + std::to_string(i) + "]: the noise must be >= 0");
+            l.position.emplace_back(r[0], r[1], r[2]);
+            l.label.push_back(r[3]);
+            if (c == 5) l.noise.push_back(r[4]);
+        }
+        o.labels = std::move(l);
+    }
+    return o;
+}
+
+Model makeModel(InputData data, const ModelOptions& options, int threads) {
+    Work work(threads, py::none());
+    Model m;
+    m.options = options;
+    m.source = data.path;
+    m.loaded = work([&](const Progress&) { return std::make_shared<const LoadedModel>(loadModel(data, options)); });
+    return m;
+}
+
+InputData soupInput(py::handle V, py::handle F) {
+    InputData data;
+    data.path = "numpy";
+    TriangleSoup soup;
+    soup.vertices = points3(V, "V");
+    const py::array f = asArray(F, "F");
+    const char kind = f.dtype().kind();
+    if (kind != 'i' && kind != 'u') throw InputError("F must hold integer vertex indices, got dtype " + dtypeName(f));
+    if (!(f.ndim() == 2 && f.shape(1) == 3 && f.shape(0) >= 1))
+        throw InputError("F must be an m x 3 array of vertex indices (triangles), got shape " + shapeText(f));
+    if (std::size_t(f.shape(0)) > kMaxInputSamples)
+        throw InputError("F has " + std::to_string(f.shape(0)) + " triangles, more than the " + std::to_string(kMaxInputSamples) + " an input may hold");
+    const auto idx = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(f);
+    const long long nv = (long long)soup.vertices.size();
+    soup.triangles.resize(std::size_t(f.shape(0)));
+    for (std::size_t t = 0; t < soup.triangles.size(); ++t)
+        for (int k = 0; k < 3; ++k) {
+            const long long v = idx.data()[3 * t + std::size_t(k)];
+            if (v < 0 || v >= nv)
+                throw InputError("F[" + std::to_string(t) + "] holds vertex index " + std::to_string(v) + ", outside 0.." +
+                                 std::to_string(nv - 1));
+            soup.triangles[t][std::size_t(k)] = int(v);
+        }
+    data.soup = std::move(soup);
+    return data;
+}
+
+InputData cloudInput(py::handle P, py::handle N, py::handle pointSigma, py::handle area) {
+    InputData data;
+    data.path = "numpy";
+    PointCloud cloud;
+    cloud.positions = points3(P, "P", false, 2);
+    cloud.normals = points3(N, "N");
+    if (cloud.normals.size() != cloud.positions.size())
+        throw InputError("N must have one normal per point: " + std::to_string(cloud.positions.size()) + " points, " +
+                         std::to_string(cloud.normals.size()) + " normals");
+    if (cloud.positions.size() > kMaxInputSamples)
+        throw InputError("P has more than the " + std::to_string(kMaxInputSamples) + " points an input may hold");
+    for (std::size_t i = 0; i < cloud.normals.size(); ++i)
+        if (!(cloud.normals[i].norm() > 0)) throw InputError("N[" + std::to_string(i) + "] is a zero normal");
+    if (!pointSigma.is_none()) cloud.sigmas = values1(pointSigma, "sigma", cloud.positions.size(), true);
+    if (!area.is_none()) cloud.areas = values1(area, "area", cloud.positions.size(), true);
+    data.cloud = std::move(cloud);
+    return data;
+}
+
+/// The cloud's `sigma`: a number (relative to ℓ), None (the default 0.5) or one absolute std per point.
+void splitCloudSigma(py::object sigma, double& rel, py::object& perPoint) {
+    rel = 0.5;
+    perPoint = py::none();
+    if (sigma.is_none()) return;
+    if (py::isinstance<py::float_>(sigma) || py::isinstance<py::int_>(sigma)) {
+        rel = sigma.cast<double>();
+        return;
+    }
+    const py::array a = asArray(sigma, "sigma");
+    if (a.ndim() == 0) {
+        rel = py::float_(sigma).cast<double>();
+        return;
+    }
+    perPoint = sigma;
+}
+
+py::dict evaluateModel(const Model& m, py::handle points, std::optional<double> iso, int qmc, int threads, py::object progress) {
+    const std::vector<Vec3d> xs = points3(points, "points", true);
+    const double u = iso ? *iso : m.loaded->model->naturalIso();
+    if (!std::isfinite(u)) throw ParameterError("iso must be finite");
+    if (qmc < 1) throw ParameterError("qmc must be >= 1 (got " + std::to_string(qmc) + ")");
+    const py::ssize_t n = py::ssize_t(xs.size());
+    py::array_t<double> mean(n), grad({n, py::ssize_t(3)}), cov({n, py::ssize_t(4), py::ssize_t(4)}), mu(n),
+        T({n, py::ssize_t(3), py::ssize_t(3)});
+    double *pm = mean.mutable_data(), *pg = grad.mutable_data(), *pc = cov.mutable_data(), *pmu = mu.mutable_data(),
+           *pT = T.mutable_data();
+    Work work(threads, std::move(progress));
+    work([&](const Progress& progress) {
+        const QmcRule rule(qmc);
+        const std::vector<ValueGradient> values = m.loaded->model->evaluate(xs, progress);
+        for (std::size_t i = 0; i < xs.size(); ++i) {
+            progress.checkInterruptAt(i, 4096);
+            const ValueGradient& v = values[i];
+            pm[i] = v.mean[0];
+            for (int k = 0; k < 3; ++k) pg[3 * i + std::size_t(k)] = v.mean[k + 1];
+            for (int r = 0; r < 4; ++r)
+                for (int c = 0; c < 4; ++c) pc[16 * i + std::size_t(4 * r + c)] = v.cov(r, c);
+            const SurfaceDensity d = kacRice(v, u, rule);
+            pmu[i] = d.mu;
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 3; ++c) pT[9 * i + std::size_t(3 * r + c)] = d.T(r, c);
+        }
+        return 0;
+    });
+    return py::dict("mean"_a = mean, "gradient"_a = grad, "covariance"_a = cov, "mu"_a = mu, "T"_a = T);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Band
+
+struct PyBand {
+    std::shared_ptr<const LoadedModel> model;
+    ModelOptions modelOptions;
+    std::string source;
+    DefaultBandOptions requested;
+    DefaultBand built;
+    double seconds = 0;
+
+    const Band& band() const { return built.result.band; }
+    /// Memory left to a task beside the band (as the command line budgets it).
+    double taskBytes() const { return std::max(1.0, built.maxMemory - double(band().size()) * band().bytesPerVoxel()); }
+};
+
+PyBand makeBand(const Model& m, std::optional<double> voxelSize, double resolutionScale, std::optional<double> iso, double eta,
+                int qmc, double maxAnisotropy, std::optional<double> maxMemory, int threads, py::object progress) {
+    PyBand b;
+    b.model = m.loaded;
+    b.modelOptions = m.options;
+    b.source = m.source;
+    DefaultBandOptions& o = b.requested;
+    if (voxelSize) {
+        o.band.voxelSize = *voxelSize;
+        if (!(o.band.voxelSize > 0) || !std::isfinite(o.band.voxelSize))
+            throw ParameterError("the voxel size (voxel_size) must be finite and > 0, or None for the default (got " +
+                                 numberText(o.band.voxelSize) + ")");
+    }
+    if (iso) o.band.iso = *iso;
+    if (iso && !std::isfinite(o.band.iso)) throw ParameterError("iso must be finite");
+    o.band.etaRelative = eta;
+    o.band.qmcSamples = qmc;
+    o.band.maxAnisotropy = maxAnisotropy;
+    o.resolutionScale = resolutionScale;
+    if (maxMemory) {
+        o.maxMemory = *maxMemory;
+        if (!(o.maxMemory > 0) || !std::isfinite(o.maxMemory))
+            throw ParameterError("max_memory must be a number of bytes > 0, or None for half the RAM");
+    }
+    const auto start = Clock::now();
+    Work work(threads, std::move(progress));
+    b.built = work([&](const Progress& progress) {
+        return buildDefaultBand(*m.loaded->model, m.loaded->input.samples, o, progress);
+    });
+    b.seconds = since(start);
+    return b;
+}
+
+py::dict bandReport(const PyBand& b) {
+    const Band& band = b.band();
+    const BandStats& st = b.built.result.stats;
+    const InputSamples& in = b.model->input;
+    const openvdb::CoordBBox bb = band.bbox();
+    const ModelOptions& mo = b.modelOptions;
+    py::dict input("source"_a = b.source, "samples"_a = in.samples.size(), "length_scale"_a = in.samples.lengthScale,
+                   "kind"_a = in.isSoup ? "triangle soup" : "oriented point cloud", "skipped_zero_area"_a = in.degenerateSkipped);
+    py::dict parameters(
+        "sigma_rel"_a = mo.sigmaRel, "sigma"_a = in.sigma, "smoothing_rel"_a = mo.smoothingRel, "smoothing"_a = b.model->smoothing,
+        "model"_a = mo.kind == ModelKind::Regression ? "regression" : "winding", "training_labels"_a = b.model->trainingSize,
+        "iso"_a = b.built.options.iso, "eta_rel"_a = b.built.options.etaRelative, "eta"_a = st.etaAbsolute,
+        "voxel_size"_a = b.built.options.voxelSize, "h_star"_a = b.built.resolution.hStar, "mu_width"_a = b.built.resolution.muWidth,
+        "resolution_scale"_a = b.requested.resolutionScale, "qmc_samples"_a = b.built.options.qmcSamples,
+        "beta"_a = mo.barnesHut.beta, "exact"_a = mo.exact, "max_anisotropy"_a = b.built.options.maxAnisotropy,
+        "max_memory_bytes"_a = b.built.maxMemory);
+    py::dict stages("model"_a = st.modelSeconds, "kac_rice"_a = st.kacRiceSeconds, "search"_a = st.searchSeconds,
+                    "finish"_a = st.finishSeconds);
+    py::dict bandInfo("voxels"_a = band.size(), "voxel_size"_a = band.voxelSize,
+                      "bbox_voxels"_a = py::make_tuple(bb.dim().x(), bb.dim().y(), bb.dim().z()),
+                      "bbox_min"_a = py::make_tuple(bb.min().x(), bb.min().y(), bb.min().z()), "mass"_a = band.mass(),
+                      "max_stencil_l1"_a = st.maxStencilL1, "max_stencil_l1_at_samples"_a = b.built.resolution.maxStencilL1,
+                      "evaluated_voxels"_a = st.evaluated, "bfs_levels"_a = st.levels, "regularised_voxels"_a = st.regularised,
+                      "median_mu_at_samples"_a = st.medianSampleMu, "stage_seconds"_a = stages,
+                      "bytes_per_voxel"_a = band.bytesPerVoxel());
+    return py::dict("input"_a = input, "parameters"_a = parameters, "band"_a = bandInfo,
+                    "timings_s"_a = py::dict("band"_a = b.seconds));
+}
+
+/// File metadata, as the command line writes it (docs/band.md, "The .vdb file"); `mesh` reads 'iso'.
+openvdb::MetaMap bandMetadata(const PyBand& b, bool half) {
+    openvdb::MetaMap meta;
+    const InputSamples& in = b.model->input;
+    const ModelOptions& mo = b.modelOptions;
+    meta.insertMeta("gpisvdb_version", openvdb::StringMetadata(GPISVDB_VERSION));
+    meta.insertMeta("command_line", openvdb::StringMetadata("python: gpisvdb.band"));
+    meta.insertMeta("input", openvdb::StringMetadata(b.source));
+    meta.insertMeta("input_samples", openvdb::Int64Metadata(openvdb::Int64(in.samples.size())));
+    meta.insertMeta("length_scale", openvdb::DoubleMetadata(in.samples.lengthScale));
+    meta.insertMeta("sigma_rel", openvdb::DoubleMetadata(mo.sigmaRel));
+    meta.insertMeta("sigma", openvdb::DoubleMetadata(in.sigma));
+    meta.insertMeta("smoothing_rel", openvdb::DoubleMetadata(mo.smoothingRel));
+    meta.insertMeta("smoothing", openvdb::DoubleMetadata(b.model->smoothing));
+    meta.insertMeta("model", openvdb::StringMetadata(mo.kind == ModelKind::Regression ? "regression" : "winding"));
+    meta.insertMeta("iso", openvdb::DoubleMetadata(b.built.options.iso));
+    meta.insertMeta("eta_rel", openvdb::DoubleMetadata(b.built.options.etaRelative));
+    meta.insertMeta("eta", openvdb::DoubleMetadata(b.built.result.stats.etaAbsolute));
+    meta.insertMeta("voxel_size", openvdb::DoubleMetadata(b.built.options.voxelSize));
+    meta.insertMeta("h_star", openvdb::DoubleMetadata(b.built.resolution.hStar));
+    meta.insertMeta("mu_width", openvdb::DoubleMetadata(b.built.resolution.muWidth));
+    meta.insertMeta("qmc_samples", openvdb::Int32Metadata(b.built.options.qmcSamples));
+    meta.insertMeta("beta", openvdb::DoubleMetadata(mo.barnesHut.beta));
+    meta.insertMeta("exact", openvdb::BoolMetadata(mo.exact));
+    meta.insertMeta("max_anisotropy", openvdb::DoubleMetadata(b.built.options.maxAnisotropy));
+    meta.insertMeta("band_voxels", openvdb::Int64Metadata(openvdb::Int64(b.band().size())));
+    meta.insertMeta("band_mass", openvdb::DoubleMetadata(b.band().mass()));
+    meta.insertMeta("half_float", openvdb::BoolMetadata(half));
+    return meta;
+}
+
+/// Writes under a temporary name beside `path` and renames it into place, so that an error or a Ctrl-C leaves
+/// no file (nor a partial one) behind.
+template <class Write>
+void writeAtomically(const std::string& path, Write&& write, int threads) {
+    namespace fs = std::filesystem;
+    const fs::path target(path);
+    std::error_code ec;
+    if (fs::is_directory(target, ec)) throw OutputError(path + ": is a directory, expected a file name");
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    if (!fs::is_directory(dir, ec)) throw OutputError(path + ": the directory " + dir.string() + " does not exist");
+    std::random_device rd;
+    const std::string temp = (dir / (target.filename().string() + ".tmp-" + std::to_string(rd() % 1000000))).string();
+    struct Remove {
+        std::string p;
+        bool keep = false;
+        ~Remove() {
+            std::error_code e;
+            if (!keep) std::filesystem::remove(p, e);
+        }
+    } cleanup{temp};
+    Work work(threads, py::none());
+    work([&](const Progress&) {
+        write(temp);
+        return 0;
+    });
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();  // a Ctrl-C during the write: no file
+    fs::rename(temp, path, ec);
+    if (ec) throw OutputError(path + ": cannot rename the finished file into place: " + ec.message());
+    cleanup.keep = true;
+}
+
+void writeBand(const PyBand& b, const std::string& path, bool half, bool stencils, py::object channels, py::object vectors,
+               int threads) {
+    const std::size_t n = b.band().size();
+    std::vector<std::string> names;
+    std::vector<std::vector<float>> scalar, vector;
+    std::vector<std::string> vectorNames;
+    if (!channels.is_none())
+        for (auto item : channels.cast<py::dict>()) {
+            names.push_back(py::str(item.first));
+            scalar.push_back(channel(item.second, ("channels['" + names.back() + "']").c_str(), n, 1));
+        }
+    if (!vectors.is_none())
+        for (auto item : vectors.cast<py::dict>()) {
+            vectorNames.push_back(py::str(item.first));
+            vector.push_back(channel(item.second, ("vectors['" + vectorNames.back() + "']").c_str(), n, 3));
+        }
+    std::vector<NamedChannel> extra;
+    for (std::size_t i = 0; i < names.size(); ++i) extra.push_back({names[i], &scalar[i]});
+    std::vector<NamedVectorChannel> vec;
+    for (std::size_t i = 0; i < vectorNames.size(); ++i) vec.push_back({vectorNames[i], &vector[i]});
+    VdbWriteOptions vo;
+    vo.halfFloat = half;
+    vo.sellingStencils = stencils;
+    const openvdb::MetaMap meta = bandMetadata(b, half);
+    writeAtomically(path, [&](const std::string& temp) { writeBandVdb(b.band(), temp, meta, extra, vec, vo); }, threads);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Tasks
+
+PcgOptions pcgOptions(double tolerance, int maxIterations, const std::string& preconditioner) {
+    PcgOptions o;
+    o.tolerance = tolerance;
+    o.maxIterations = maxIterations;
+    if (preconditioner == "jacobi") o.preconditioner = Preconditioner::Jacobi;
+    else if (preconditioner == "ic") o.preconditioner = Preconditioner::IncompleteCholesky;
+    else throw ParameterError("preconditioner must be 'jacobi' or 'ic', got '" + preconditioner + "'");
+    if (!(tolerance > 0) || !std::isfinite(tolerance)) throw ParameterError("tolerance must be finite and > 0");
+    if (maxIterations < 1) throw ParameterError("max_iterations must be >= 1");
+    return o;
+}
+
+py::dict solverInfo(const PcgResult& r) {
+    return py::dict("iterations"_a = r.iterations, "relative_residual"_a = r.relativeResidual, "restarts"_a = r.restarts,
+                    "converged"_a = r.converged);
+}
+
+py::dict green(const PyBand& b, py::handle source, double tolerance, int maxIterations, const std::string& preconditioner,
+               int threads, py::object progress) {
+    const Vec3d y = points3(source, "source", true).front();
+    const PcgOptions po = pcgOptions(tolerance, maxIterations, preconditioner);
+    Work work(threads, std::move(progress));
+    GreenResult g = work([&](const Progress& progress) {
+        std::unique_ptr<SymmetricOperator> L;
+        SparseMatrixF assembled;
+        if (po.preconditioner == Preconditioner::IncompleteCholesky) {
+            assembled = assembleLaplacian(b.band());
+            L = std::make_unique<AssembledOperator>(assembled);
+        } else {
+            L = std::make_unique<LaplacianOperator>(b.band());
+        }
+        return greensFunction(b.band(), *L, y, po, progress);
+    });
+    return py::dict("values"_a = copyOf<float>(g.values), "source_index"_a = g.sourceIndex, "solver"_a = solverInfo(g.solver));
+}
+
+py::dict geodesic(const PyBand& b, py::handle sources, py::object targets, bool stopAtTargets, int threads, py::object progress) {
+    const std::vector<Vec3d> src = points3(sources, "sources", true);
+    const std::vector<Vec3d> tgt = targets.is_none() ? std::vector<Vec3d>{} : points3(targets, "targets", true);
+    if (stopAtTargets && tgt.empty()) throw ParameterError("stop_at_targets needs at least one target");
+    GeodesicOptions o;
+    o.stopAtTargets = stopAtTargets;
+    o.maxBytes = b.taskBytes();
+    Work work(threads, std::move(progress));
+    GeodesicResult g = work([&](const Progress& progress) { return geodesicDistance(b.band(), src, tgt, o, progress); });
+    py::list paths;
+    py::array_t<double> lengths(py::ssize_t(g.paths.size())), distances(py::ssize_t(g.paths.size()));
+    py::array_t<bool> reached(py::ssize_t(g.paths.size()));
+    for (std::size_t k = 0; k < g.paths.size(); ++k) {
+        const GeodesicPath& p = g.paths[k];
+        py::array_t<double> pts({py::ssize_t(p.points.size()), py::ssize_t(3)});
+        for (std::size_t i = 0; i < p.points.size(); ++i)
+            for (int d = 0; d < 3; ++d) pts.mutable_data()[3 * i + std::size_t(d)] = p.points[i][d];
+        paths.append(pts);
+        lengths.mutable_data()[k] = p.length;
+        distances.mutable_data()[k] = p.distance;
+        reached.mutable_data()[k] = p.reachedSource;
+    }
+    return py::dict("distance"_a = copyOf<double>(g.march.distance), "paths"_a = paths, "path_length"_a = lengths,
+                    "path_distance"_a = distances, "reached_source"_a = reached, "source_index"_a = g.sourceIndex,
+                    "target_index"_a = g.targetIndex, "reached"_a = g.march.accepted, "unreached"_a = g.march.unreached);
+}
+
+EigenOptions eigenOptions(const PyBand& b, int k, int subspace, double tolerance, int maxRestarts) {
+    EigenOptions o;
+    o.count = k;
+    o.subspace = subspace;
+    o.tolerance = tolerance;
+    o.maxRestarts = maxRestarts;
+    o.maxBytes = b.taskBytes();
+    return o;
+}
+
+py::dict eigenInfo(const EigenResult& e) {
+    return py::dict("residuals"_a = py::array_t<double>(py::ssize_t(e.residuals.size()), e.residuals.data()),
+                    "orthonormality_error"_a = e.orthonormalityError, "subspace"_a = e.subspace, "restarts"_a = e.restarts,
+                    "solves"_a = e.solves, "factor_nonzeros"_a = e.factorNonzeros, "ordering"_a = e.ordering);
+}
+
+/// An Eigen matrix (column-major) as a C-ordered numpy copy.
+py::array matrixCopy(const Eigen::MatrixXd& m) {
+    py::array_t<double> a({py::ssize_t(m.rows()), py::ssize_t(m.cols())});
+    for (Eigen::Index r = 0; r < m.rows(); ++r)
+        for (Eigen::Index c = 0; c < m.cols(); ++c) a.mutable_data()[r * m.cols() + c] = m(r, c);
+    return std::move(a);
+}
+
+py::tuple spectrumTask(const PyBand& b, int k, int subspace, double tolerance, int maxRestarts, int threads, py::object progress) {
+    const EigenOptions o = eigenOptions(b, k, subspace, tolerance, maxRestarts);
+    Work work(threads, std::move(progress));
+    EigenResult e = work([&](const Progress& progress) { return spectrum(b.band(), o, progress); });
+    return py::make_tuple(py::array_t<double>(py::ssize_t(e.values.size()), e.values.data()), matrixCopy(e.vectors),
+                          eigenInfo(e));
+}
+
+py::dict regress(const PyBand& b, py::handle points, py::handle values, py::object noise, int k, double nu,
+                 std::optional<double> kappa, std::optional<double> amplitude, int threads, py::object progress) {
+    PointData data;
+    data.position = points3(points, "points", true);
+    data.value = values1(values, "values", data.position.size());
+    data.noise = noise.is_none() ? std::vector<double>(data.position.size(), 0.0)
+                                 : values1(noise, "noise", data.position.size(), false, true);
+    RegressionOptions ro;
+    ro.kernel.nu = nu;
+    if (!(nu > 0)) throw ParameterError("nu must be > 0 (or math.inf)");
+    if (kappa) {
+        ro.kernel.kappa = *kappa;
+        if (!(ro.kernel.kappa > 0) || !std::isfinite(ro.kernel.kappa)) throw ParameterError("kappa must be finite and > 0");
+    }
+    if (amplitude) {
+        ro.kernel.amplitude = *amplitude;
+        ro.amplitudeFromData = false;
+        if (!(ro.kernel.amplitude > 0) || !std::isfinite(ro.kernel.amplitude)) throw ParameterError("amplitude must be finite and > 0");
+    }
+    const EigenOptions eo = eigenOptions(b, k, 0, EigenOptions{}.tolerance, EigenOptions{}.maxRestarts);
+    Work work(threads, std::move(progress));
+    RegressionResult r = work([&](const Progress& progress) {
+        const EigenResult e = spectrum(b.band(), eo, progress);
+        return gpRegression(b.band(), e, data, ro, progress.interruptOnly());
+    });
+    return py::dict("mean"_a = copyOf<float>(r.mean), "variance"_a = copyOf<float>(r.variance),
+                    "mean_at_data"_a = py::array_t<double>(py::ssize_t(r.meanAtData.size()), r.meanAtData.data()),
+                    "variance_at_data"_a = py::array_t<double>(py::ssize_t(r.varianceAtData.size()), r.varianceAtData.data()),
+                    "prior_mean"_a = r.priorMean, "amplitude"_a = r.amplitude, "kappa"_a = r.kappa);
+}
+
+py::dict hodge(const PyBand& b, py::handle field, const std::string& boundary, double tolerance, int maxIterations,
+               int threads, py::object progress) {
+    std::vector<float> V;
+    if (py::isinstance<py::str>(field)) {
+        const std::string p = field.cast<std::string>();
+        if (p != "rotation" && p != "gradient" && p != "mixed")
+            throw ParameterError("field must be an N x 3 array or one of 'rotation', 'gradient', 'mixed', got '" + p + "'");
+        V = hodgePreset(b.band(), p == "rotation" ? HodgePreset::Rotation : p == "gradient" ? HodgePreset::Gradient : HodgePreset::Mixed);
+    } else {
+        V = channel(field, "field", b.band().size(), 3);
+    }
+    HodgeOptions o;
+    o.solver = pcgOptions(tolerance, maxIterations, "jacobi");
+    if (boundary == "neumann") o.boundary = Boundary::Neumann;
+    else if (boundary == "dirichlet") o.boundary = Boundary::Dirichlet;
+    else throw ParameterError("boundary must be 'neumann' or 'dirichlet', got '" + boundary + "'");
+    Work work(threads, std::move(progress));
+    HodgeResult r = work([&](const Progress& progress) { return hodgeDecomposition(b.band(), V, o, progress); });
+    return py::dict("input"_a = copyOf<float>(V, 3), "potential"_a = copyOf<float>(r.potential),
+                    "gradient"_a = copyOf<float>(r.gradient, 3), "free"_a = copyOf<float>(r.free, 3),
+                    "divergence_residual"_a = r.divergenceResidual, "s_inner_product"_a = r.sInnerProduct,
+                    "solver"_a = solverInfo(r.solver));
+}
+
+py::dict smoothedDistance(const PyBand& b, double alpha, std::optional<double> gridVoxelSize, std::optional<double> padding,
+                          std::optional<double> tolerance, bool bruteForce, int threads, py::object progress) {
+    SmoothedDistanceOptions o;
+    o.alpha = alpha;
+    if (!(alpha > 0) || !std::isfinite(alpha)) throw ParameterError("alpha must be finite and > 0 (world units^-1)");
+    if (gridVoxelSize) {
+        o.gridVoxelSize = *gridVoxelSize;
+        if (!(o.gridVoxelSize > 0) || !std::isfinite(o.gridVoxelSize)) throw ParameterError("grid_voxel_size must be finite and > 0");
+    }
+    if (padding) {
+        o.padding = *padding;
+        if (!(o.padding >= 0) || !std::isfinite(o.padding)) throw ParameterError("padding must be finite and >= 0");
+    }
+    if (tolerance) {
+        o.tolerance = *tolerance;
+        if (!(o.tolerance > 0) || !std::isfinite(o.tolerance)) throw ParameterError("tolerance must be finite and > 0");
+    }
+    o.bruteForce = bruteForce;
+    // Bytes per grid point: the values while they are computed, the dense grid, and the numpy copy.
+    o.maxPoints = std::size_t(b.taskBytes() / 16);
+    Work work(threads, std::move(progress));
+    SmoothedDistanceResult r = work([&](const Progress& progress) { return smoothedDistanceGrid(b.band(), o, progress); });
+    const openvdb::CoordBBox box = r.grid->evalActiveVoxelBoundingBox();
+    const openvdb::Coord dim = box.dim();
+    py::array_t<float> values({py::ssize_t(dim.x()), py::ssize_t(dim.y()), py::ssize_t(dim.z())});
+    float* out = values.mutable_data();
+    const auto acc = r.grid->getConstAccessor();
+    for (int i = 0; i < dim.x(); ++i)
+        for (int j = 0; j < dim.y(); ++j)
+            for (int k = 0; k < dim.z(); ++k)
+                out[(std::size_t(i) * std::size_t(dim.y()) + std::size_t(j)) * std::size_t(dim.z()) + std::size_t(k)] =
+                    acc.getValue(box.min().offsetBy(i, j, k));
+    return py::dict("values"_a = values, "origin"_a = py::make_tuple(r.voxelSize * box.min().x(), r.voxelSize * box.min().y(), r.voxelSize * box.min().z()),
+                    "voxel_size"_a = r.voxelSize, "background"_a = r.background, "tolerance"_a = r.tolerance,
+                    "mean_terms"_a = r.meanTerms);
+}
+
+py::tuple meanSurfaceTask(const PyBand& b, std::optional<double> iso, py::object channels, int threads) {
+    const double u = iso ? *iso : b.built.options.iso;
+    if (!std::isfinite(u)) throw ParameterError("iso must be finite");
+    const std::size_t n = b.band().size();
+    // The band's grids (mean, mu, stddev, ...) and the caller's per-voxel arrays, sampled at the vertices.
+    std::vector<std::string> names;
+    std::vector<std::vector<float>> data;
+    std::vector<int> components;
+    if (channels.is_none()) {
+        names = {"mu", "stddev"};
+    } else {
+        for (auto item : channels.cast<py::dict>()) {
+            names.push_back(py::str(item.first));
+            const py::array a = asArray(item.second, names.back().c_str());
+            const int c = a.ndim() == 2 ? int(a.shape(1)) : 1;
+            data.push_back(channel(item.second, ("channels['" + names.back() + "']").c_str(), n, c == 3 ? 3 : 1));
+            components.push_back(c == 3 ? 3 : 1);
+        }
+    }
+    Work work(threads, py::none());
+    SurfaceMesh mesh = work([&](const Progress&) {
+        std::vector<NamedChannel> extra;
+        std::vector<NamedVectorChannel> vec;
+        for (std::size_t i = 0; i < data.size(); ++i) {
+            if (components[i] == 1) extra.push_back({"extra_" + names[i], &data[i]});
+            else vec.push_back({"extra_" + names[i], &data[i]});
+        }
+        const openvdb::GridPtrVec grids = bandGrids(b.band(), extra, vec);
+        std::map<std::string, openvdb::GridBase::Ptr> byName;
+        for (const auto& g : grids) byName[g->getName()] = g;
+        const auto mean = openvdb::gridPtrCast<openvdb::FloatGrid>(byName.at("mean"));
+        SurfaceMesh m = meanSurface(*mean, u);
+        for (const std::string& name : names) {
+            auto it = byName.find(data.empty() ? name : "extra_" + name);
+            if (it == byName.end()) throw ParameterError("no band channel named '" + name + "'");
+            sampleAtVertices(m, *it->second);
+        }
+        return m;
+    });
+    py::array_t<double> V({py::ssize_t(mesh.vertices.size()), py::ssize_t(3)});
+    for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
+        for (int d = 0; d < 3; ++d) V.mutable_data()[3 * i + std::size_t(d)] = mesh.vertices[i][d];
+    py::array_t<std::int32_t> F({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+        for (int d = 0; d < 3; ++d) F.mutable_data()[3 * t + std::size_t(d)] = mesh.triangles[t][std::size_t(d)];
+    py::dict values;
+    for (std::size_t k = 0; k < mesh.arrayNames.size(); ++k) {
+        std::string name = mesh.arrayNames[k];
+        if (name.rfind("extra_", 0) == 0) name = name.substr(6);
+        values[py::str(name)] = copyOf<float>(mesh.arrays[k], mesh.components[k]);
+    }
+    return py::make_tuple(V, F, values);
+}
+
+}  // namespace
+
+}  // namespace gpisvdb::python
+
+// ---------------------------------------------------------------------------------------------------------------
+
+PYBIND11_MODULE(_core, m) {
+    using namespace gpisvdb;
+    using namespace gpisvdb::python;
+    openvdb::initialize();
+    m.doc() = "The gpisvdb engine (C++); use the package gpisvdb, which re-exports it.";
+    m.attr("__version__") = GPISVDB_VERSION;
+
+    // Exceptions (gpisvdb.Error is a RuntimeError; parameter and input errors are also ValueErrors).
+    gError = PyErr_NewExceptionWithDoc("gpisvdb.Error", "Base of every error gpisvdb reports.", PyExc_RuntimeError, nullptr);
+    py::tuple inputBases = py::make_tuple(py::handle(gError), py::handle(PyExc_ValueError));
+    gInputError = PyErr_NewExceptionWithDoc("gpisvdb.InputError",
+                                            "The input (a file or an array) is missing, malformed or holds unusable data.",
+                                            inputBases.ptr(), nullptr);
+    gParameterError = PyErr_NewExceptionWithDoc("gpisvdb.ParameterError",
+                                                "A parameter is out of its valid range; the message names it and the range.",
+                                                inputBases.ptr(), nullptr);
+    gMemoryLimitError = PyErr_NewExceptionWithDoc(
+        "gpisvdb.MemoryLimitError",
+        "The work would need more memory than max_memory allows; refused before allocating. The message names the "
+        "voxel size (or other parameter) that would fit.",
+        gParameterError, nullptr);
+    gOutputError = PyErr_NewExceptionWithDoc("gpisvdb.OutputError", "An output file could not be written.", gError, nullptr);
+    m.attr("Error") = py::handle(gError);
+    m.attr("InputError") = py::handle(gInputError);
+    m.attr("ParameterError") = py::handle(gParameterError);
+    m.attr("MemoryLimitError") = py::handle(gMemoryLimitError);
+    m.attr("OutputError") = py::handle(gOutputError);
+    py::register_exception_translator(&translateErrors);
+
+    // ----------------------------------------------------------------------------------------------- Model
+    py::class_<Model>(m, "Model", R"doc(A Gaussian process implicit surface: at every point x, (phi(x), grad phi(x)) is Gaussian.
+
+Model(V, F, sigma=0.5, smoothing=0.4, beta=6.0, exact=False, model='winding', labels=None,
+      training_points=300, training_offset=0.5, label_noise=0.05, threads=0)
+
+A triangle soup with Gaussian vertex noise (paper App. B). V: n x 3 vertex positions (world units, any real
+dtype), F: m x 3 vertex indices (integer dtype), counter-clockwise seen from outside.
+
+Parameters (as the command line's flags; docs/python.md):
+  sigma            vertex noise std, relative to the length scale l (mean edge length) (> 0)
+  smoothing        kernel smoothing s, relative to l (regression: to the training spacing) (> 0)
+  beta             Barnes-Hut accuracy: a node stands in for its samples beyond beta x its radius (> 1)
+  exact            direct O(n) sums instead of Barnes-Hut
+  model            'winding' (linearised winding number, surface phi = 0.5) or 'regression' (App. F, phi = 0)
+  labels           regression: an n x 4 (x, y, z, label) or n x 5 (..., noise) array; None: generated
+  training_points  regression: surface points kept from the input, 3 labels each
+  training_offset  regression: inside/outside label offset, relative to the training spacing
+  label_noise      regression: std of the labels (>= 0)
+  threads          worker threads while the model is built (0: all cores)
+
+Raises InputError (bad arrays: shape, dtype, NaN, index out of range) and ParameterError (bad parameters).
+
+Example:
+  >>> import numpy as np, gpisvdb
+  >>> model = gpisvdb.Model(V, F, sigma=0.25)
+  >>> model.evaluate(np.zeros((1, 3)))['mu']
+)doc")
+        .def(py::init([](py::handle V, py::handle F, double sigma, double smoothing, double beta, bool exact, const std::string& model,
+                         py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise, int threads) {
+                 const ModelOptions o = modelOptions(sigma, smoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                 return makeModel(soupInput(V, F), o, threads);
+             }),
+             "V"_a, "F"_a, py::kw_only(), "sigma"_a = 0.5, "smoothing"_a = 0.4, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+             "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
+             "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
+             "threads"_a = 0)
+        .def_static(
+            "from_cloud",
+            [](py::handle P, py::handle N, py::object sigma, py::object area, double smoothing, double beta, bool exact,
+               const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise,
+               int threads) {
+                double rel;
+                py::object perPoint;
+                splitCloudSigma(sigma, rel, perPoint);
+                const ModelOptions o = modelOptions(rel, smoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                return makeModel(cloudInput(P, N, perPoint, area), o, threads);
+            },
+            "P"_a, "N"_a, py::kw_only(), "sigma"_a = py::none(), "area"_a = py::none(), "smoothing"_a = 0.4,
+            "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding", "labels"_a = py::none(),
+            "training_points"_a = TrainingOptions{}.surfacePoints, "training_offset"_a = TrainingOptions{}.offsetRelative,
+            "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0,
+            R"doc(A model of an oriented point cloud with per-point uncertainty (docs/model.md).
+
+P: n x 3 positions (world units), N: n x 3 outward normals (any length > 0; normalised).
+sigma: a number, the position std relative to the length scale l (mean nearest-neighbour spacing; default 0.5);
+       or an array of n absolute stds (world units), one per point, like the 7th column of an .xyz file.
+area:  None (estimated from the spacing) or n areas per point (world units^2).
+The other keywords as for Model(V, F, ...).)doc")
+        .def_static(
+            "from_file",
+            [](const std::string& path, double sigma, double smoothing, double beta, bool exact, const std::string& model,
+               py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise, int threads) {
+                const ModelOptions o = modelOptions(sigma, smoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                InputData data;
+                {
+                    py::gil_scoped_release release;
+                    data = readInput(path);
+                }
+                return makeModel(std::move(data), o, threads);
+            },
+            "path"_a, py::kw_only(), "sigma"_a = 0.5, "smoothing"_a = 0.4, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+            "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
+            "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
+            "threads"_a = 0,
+            R"doc(A model of a file: a triangle soup (.obj .off .ply .stl .vtp) or an oriented cloud (.xyz .ply .vtp), as the
+command line reads it. Keywords as for Model(V, F, ...); a cloud's per-point sigma column is used where present.)doc")
+        .def("evaluate", &evaluateModel, "points"_a, py::kw_only(), "iso"_a = py::none(), "qmc"_a = 512, "threads"_a = 0,
+             "progress"_a = py::none(),
+             R"doc(Mean and covariance of (phi, grad phi), and the Kac-Rice mu and T, at points (n x 3, world units).
+
+iso: the level u of the surface phi = u for mu and T (None: 0.5 for the winding model, 0 for regression).
+qmc: QMC points for mu and T (>= 1).
+Returns a dict of float64 arrays:
+  mean        (n,)       gamma = E[phi]
+  gradient    (n, 3)     E[grad phi], world units^-1
+  covariance  (n, 4, 4)  covariance of (phi, d/dx phi, d/dy phi, d/dz phi)
+  mu          (n,)       surface density, world units^-1 (expected area per volume)
+  T           (n, 3, 3)  tangent tensor, world units^-1 (trace 2 mu)
+The same numbers as `gpisvdb evaluate`'s CSV.)doc")
+        .def_property_readonly("length_scale", [](const Model& m) { return m.loaded->input.samples.lengthScale; },
+                               "l: mean edge length (soup) or mean nearest-neighbour spacing (cloud), world units")
+        .def_property_readonly("sigma", [](const Model& m) { return m.loaded->input.sigma; }, "absolute noise std sigma, world units")
+        .def_property_readonly("smoothing", [](const Model& m) { return m.loaded->smoothing; }, "absolute kernel smoothing s, world units")
+        .def_property_readonly("samples", [](const Model& m) { return m.loaded->input.samples.size(); },
+                               "samples: triangles (soup) or points (cloud) used")
+        .def_property_readonly("skipped", [](const Model& m) { return m.loaded->input.degenerateSkipped; },
+                               "zero-area triangles left out")
+        .def_property_readonly("is_soup", [](const Model& m) { return m.loaded->input.isSoup; })
+        .def_property_readonly("kind", [](const Model& m) { return m.options.kind == ModelKind::Regression ? "regression" : "winding"; })
+        .def_property_readonly("iso", [](const Model& m) { return m.loaded->model->naturalIso(); },
+                               "the model's own surface level u (0.5 winding, 0 regression)")
+        .def("__repr__", [](const Model& m) {
+            return "<gpisvdb.Model " + std::string(m.options.kind == ModelKind::Regression ? "regression" : "winding") + " of " +
+                   std::to_string(m.loaded->input.samples.size()) + (m.loaded->input.isSoup ? " triangles" : " points") +
+                   ", l = " + numberText(m.loaded->input.samples.lengthScale) + ", sigma = " + numberText(m.loaded->input.sigma) + ">";
+        });
+
+    // ----------------------------------------------------------------------------------------------- Band
+    py::class_<PyBand>(m, "Band", R"doc(The narrow band of a GPIS: the voxels x = h k where mu(x) > eta (docs/band.md).
+
+Made by gpisvdb.band(model, ...). Per-voxel arrays (one row per voxel, in the band's linear order) are read-only
+views on the band (no copy):
+  coords (N, 3) int32 index k;  world (N, 3) float64 voxel centres h k (a new array);
+  mu, mean, stddev (N,) float32;  T (N, 6) float32 as (xx, yy, zz, xy, xz, yz);  normal (N, 3) float32;
+  stencil_width (N,) uint8 (max |e|_1 of the Selling stencil).
+Tasks: green, geodesic, spectrum, regress, hodge, smoothed_distance, mean_surface; output: write_vdb.)doc")
+        .def("__len__", [](const PyBand& b) { return b.band().size(); })
+        .def_property_readonly("size", [](const PyBand& b) { return b.band().size(); }, "number of voxels N")
+        .def_property_readonly("voxel_size", [](const PyBand& b) { return b.band().voxelSize; }, "h, world units")
+        .def_property_readonly("iso", [](const PyBand& b) { return b.built.options.iso; }, "the iso-value u the band was built at")
+        .def_property_readonly("mass", [](const PyBand& b) { return b.band().mass(); },
+                               "sum of mu h^3: the expected area of the surface, world units^2")
+        .def_property_readonly("report", &bandReport, "input, parameters (relative and absolute), band statistics, timings (a new dict)")
+        .def_property_readonly("coords", [](py::object self) {
+            const Band& b = self.cast<const PyBand&>().band();
+            return view<std::int32_t>(reinterpret_cast<const std::int32_t*>(b.coord.data()), {py::ssize_t(b.size()), 3},
+                                      {py::ssize_t(sizeof(openvdb::Coord)), 4}, self);
+        }, "(N, 3) int32 index coordinates k; the voxel centre is voxel_size * k")
+        .def_property_readonly("world", [](const PyBand& pb) {
+            const Band& b = pb.band();
+            py::array_t<double> w({py::ssize_t(b.size()), py::ssize_t(3)});
+            for (std::size_t i = 0; i < b.size(); ++i)
+                for (int d = 0; d < 3; ++d) w.mutable_data()[3 * i + std::size_t(d)] = b.voxelSize * b.coord[i][d];
+            return w;
+        }, "(N, 3) float64 voxel centres, world units")
+        .def_property_readonly("mu", [](py::object self) {
+            const Band& b = self.cast<const PyBand&>().band();
+            return view<float>(b.mu.data(), {py::ssize_t(b.size())}, {4}, self);
+        }, "(N,) float32 surface density mu, world units^-1")
+        .def_property_readonly("mean", [](py::object self) {
+            const Band& b = self.cast<const PyBand&>().band();
+            return view<float>(b.mean.data(), {py::ssize_t(b.size())}, {4}, self);
+        }, "(N,) float32 gamma = E[phi]")
+        .def_property_readonly("stddev", [](py::object self) {
+            const Band& b = self.cast<const PyBand&>().band();
+            return view<float>(b.stddev.data(), {py::ssize_t(b.size())}, {4}, self);
+        }, "(N,) float32 std of phi")
+        .def_property_readonly("T", [](py::object self) {
+            const Band& b = self.cast<const PyBand&>().band();
+            return view<float>(b.T.empty() ? nullptr : b.T.front().data(), {py::ssize_t(b.size()), 6}, {24, 4}, self);
+        }, "(N, 6) float32 tangent tensor T as (xx, yy, zz, xy, xz, yz), world units^-1")
+        .def_property_readonly("normal", [](py::object self) {
+            const Band& b = self.cast<const PyBand&>().band();
+            return view<float>(b.normal.empty() ? nullptr : b.normal.front().asPointer(), {py::ssize_t(b.size()), 3}, {12, 4}, self);
+        }, "(N, 3) float32 outward unit normal")
+        .def_property_readonly("stencil_width", [](py::object self) {
+            const Band& b = self.cast<const PyBand&>().band();
+            const std::uint8_t* p = b.stencil.empty() ? nullptr : &b.stencil.front().width;
+            return view<std::uint8_t>(p, {py::ssize_t(b.size())}, {py::ssize_t(sizeof(VoxelStencil))}, self);
+        }, "(N,) uint8 max |e|_1 over the voxel's Selling stencil")
+        .def("nearest", [](const PyBand& b, py::handle point) {
+            return nearestBandVoxel(b.band(), points3(point, "point", true).front());
+        }, "point"_a, "Linear index of the band voxel nearest a world point (x, y, z).")
+        .def("write_vdb", &writeBand, "path"_a, py::kw_only(), "half"_a = false, "stencils"_a = false, "channels"_a = py::none(),
+             "vectors"_a = py::none(), "threads"_a = 0,
+             R"doc(Writes the band as an OpenVDB file, as `gpisvdb band` does (docs/band.md, "The .vdb file").
+
+Grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width; with stencils=True the Selling stencils
+(selling_weight_0..5, selling_offset_0..5); then `channels` (dict name -> (N,) array, e.g. {'green': g['values']})
+as float grids and `vectors` (dict name -> (N, 3) array) as vec3 grids. half=True stores 16-bit floats.
+Written under a temporary name and renamed: an error or Ctrl-C leaves no file. Raises OutputError.)doc")
+        .def("green", &green, "source"_a, py::kw_only(), "tolerance"_a = PcgOptions{}.tolerance,
+             "max_iterations"_a = PcgOptions{}.maxIterations, "preconditioner"_a = "jacobi", "threads"_a = 0, "progress"_a = py::none(),
+             R"doc(The Green's function of the GPIS Laplacian from a source point (x, y, z, world units; snapped to the nearest
+voxel): solves L f = M delta_y by PCG (docs/operators.md), as `gpisvdb green`.
+Returns {'values': (N,) float32 G(., y), 'source_index': int, 'solver': {iterations, relative_residual, restarts,
+converged}}. tolerance: PCG relative residual (> 0); preconditioner 'jacobi' or 'ic'.)doc")
+        .def("geodesic", &geodesic, "sources"_a, "targets"_a = py::none(), py::kw_only(), "stop_at_targets"_a = false,
+             "threads"_a = 0, "progress"_a = py::none(),
+             R"doc(Geodesic distance on the GPIS by Hamiltonian fast marching (docs/geodesic.md), as `gpisvdb geodesic`.
+
+sources: one point (x, y, z) or k x 3 points, world units, snapped to the nearest voxels; targets: None, one point
+or t x 3 points: a shortest path is traced back from each.
+Returns a dict: 'distance' (N,) float64 U (world units x T^-1/2; inf where not reached), 'paths' (a list of
+p_i x 3 float64 polylines, world units, target to source), 'path_length' (t,) Euclidean lengths, 'path_distance'
+(t,) U at each target, 'reached_source' (t,) bool, 'source_index', 'target_index', 'reached', 'unreached'.)doc")
+        .def("spectrum", &spectrumTask, "k"_a = EigenOptions{}.count, py::kw_only(), "subspace"_a = 0,
+             "eigen_tolerance"_a = EigenOptions{}.tolerance, "max_restarts"_a = EigenOptions{}.maxRestarts, "threads"_a = 0,
+             "progress"_a = py::none(),
+             R"doc(The k lowest eigenpairs of L u = lambda M u (docs/spectrum.md), as `gpisvdb spectrum`.
+Returns (values, vectors, info): values (k,) float64 ascending, world units^-2; vectors (N, k) float64,
+M-orthonormal (sum u_i u_j mu h^3 = delta_ij); info: residuals, orthonormality error, solver counts.)doc")
+        .def("regress", &regress, "points"_a, "values"_a, "noise"_a = py::none(), py::kw_only(), "k"_a = 200, "nu"_a = 1.5,
+             "kappa"_a = py::none(), "amplitude"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
+             R"doc(Gaussian-process regression of scalar data on the GPIS with the Matern kernel of its k lowest eigenpairs
+(docs/spectrum.md), as `gpisvdb regress`. points: m x 3 (world units, in the band), values: (m,), noise: None
+(exact) or (m,) stds. nu: smoothness (> 0, math.inf for the squared exponential); kappa: length scale (world
+units; None: 0.1 sqrt(mass)); amplitude: prior variance (None: the variance of the values).
+Returns {'mean', 'variance': (N,) float32, 'mean_at_data', 'variance_at_data': (m,), 'prior_mean', 'amplitude', 'kappa'}.)doc")
+        .def("hodge", &hodge, "field"_a, py::kw_only(), "boundary"_a = "neumann", "tolerance"_a = HodgeOptions{}.solver.tolerance,
+             "max_iterations"_a = PcgOptions{}.maxIterations, "threads"_a = 0, "progress"_a = py::none(),
+             R"doc(Hodge decomposition V = grad_phi psi + V_free of a vector field on the band (docs/hodge.md), as `gpisvdb hodge`.
+field: an (N, 3) array (world units, one vector per voxel) or a preset 'rotation', 'gradient', 'mixed'.
+Returns {'input', 'gradient', 'free': (N, 3) float32, 'potential': (N,) float32, 'divergence_residual',
+'s_inner_product', 'solver'}.)doc")
+        .def("smoothed_distance", &smoothedDistance, "alpha"_a, py::kw_only(), "grid_voxel_size"_a = py::none(),
+             "padding"_a = py::none(), "tolerance"_a = py::none(), "brute_force"_a = false, "threads"_a = 0, "progress"_a = py::none(),
+             R"doc(The smoothed distance d_alpha to the GPIS (paper Eq. 31; docs/smoothed_distance.md) on a dense grid covering the
+band, as `gpisvdb distance`. alpha: sharpness, world units^-1 (> 0). grid_voxel_size H (None: box / 128),
+padding (None: 10 % of the box), tolerance per value (None: H / 100), all world units.
+Returns {'values': (nx, ny, nz) float32 with values[i, j, k] at origin + H (i, j, k), 'origin', 'voxel_size',
+'background', 'tolerance', 'mean_terms'}.)doc")
+        .def("mean_surface", &meanSurfaceTask, py::kw_only(), "iso"_a = py::none(), "channels"_a = py::none(), "threads"_a = 0,
+             R"doc(The mean surface gamma = u (u: the band's iso by default) as a triangle mesh, as `gpisvdb mesh`.
+channels: None (samples mu and stddev) or a dict name -> (N,) or (N, 3) per-voxel array, sampled trilinearly at
+the vertices. Returns (V (n, 3) float64 world units, F (m, 3) int32, {name: values at the vertices}).)doc")
+        .def("__repr__", [](const PyBand& b) {
+            return "<gpisvdb.Band " + std::to_string(b.band().size()) + " voxels of size " + numberText(b.band().voxelSize) +
+                   ", mass " + numberText(b.band().mass()) + ">";
+        });
+
+    m.def("band", &makeBand, "model"_a, py::kw_only(), "voxel_size"_a = py::none(), "resolution_scale"_a = 1.0, "iso"_a = py::none(),
+          "eta"_a = BandOptions{}.etaRelative, "qmc"_a = BandOptions{}.qmcSamples, "max_anisotropy"_a = BandOptions{}.maxAnisotropy,
+          "max_memory"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
+          R"doc(The narrow band of the GPIS with mu, T and the Selling stencils, as `gpisvdb band` builds it (docs/band.md).
+
+  voxel_size        h in world units (None: min(h*, 1.25 w_mu), h* = l / max stencil width, w_mu mu's width)
+  resolution_scale  scales the default voxel size (> 0; below 1 is finer; 0.6 for pictures of mu without moire)
+  iso               iso-value u of the surface phi = u (None: 0.5 winding, 0 regression)
+  eta               band threshold: keep mu > eta x (median mu at the samples' voxels) (> 0)
+  qmc               QMC points S for mu and T (>= 1)
+  max_anisotropy    T is regularised to sqrt(lmax/lmin) <= this (>= 1)
+  max_memory        refuse (MemoryLimitError) bands needing more bytes than this (None: half the RAM)
+  threads           worker threads (0: all cores); the GIL is released while the band is built
+  progress          None or a callable (stage: str, fraction: float), called on this thread
+
+Ctrl-C (KeyboardInterrupt) stops the build within a fraction of a second.
+Example:
+  >>> band = gpisvdb.band(gpisvdb.Model.from_file('bunny.obj', sigma=1.0))
+  >>> band.mu.shape, band.voxel_size, band.mass
+  >>> band.write_vdb('bunny.vdb'))doc");
+}

@@ -1,0 +1,106 @@
+"""The tasks on a band from Python, each against the command line's result on the same input or its defining
+property."""
+import json
+
+import numpy as np
+import pytest
+
+import gpisvdb
+from conftest import FLAGS, at_coords, read_grid, run_cli
+
+SOURCE, TARGET = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
+
+
+def test_green_equals_the_command_line(band, sphere_obj, tmp_path):
+    g = band.green(SOURCE)
+    assert g["solver"]["converged"]
+    assert g["source_index"] == band.nearest(SOURCE)
+    run_cli("green", sphere_obj, "--source", "%g,%g,%g" % SOURCE, "-o", tmp_path / "green.vdb", *FLAGS)
+    dense, lo = read_grid(tmp_path / "green.vdb", "green")
+    np.testing.assert_array_equal(at_coords(dense, lo, band.coords), g["values"])
+    # Symmetric about its source: largest there.
+    assert np.argmax(g["values"]) == g["source_index"]
+
+
+def test_geodesic_equals_the_command_line_and_its_path_joins_target_to_source(band, sphere_obj, tmp_path):
+    g = band.geodesic(SOURCE, TARGET)
+    assert g["distance"].shape == (len(band),) and g["unreached"] == 0
+    assert g["distance"][g["source_index"][0]] == 0
+    run_cli("geodesic", sphere_obj, "--source", "%g,%g,%g" % SOURCE, "--target", "%g,%g,%g" % TARGET,
+            "-o", tmp_path / "geo.vdb", "--paths", tmp_path / "path.json", *FLAGS)
+    dense, lo = read_grid(tmp_path / "geo.vdb", "geodesic")
+    np.testing.assert_array_equal(at_coords(dense, lo, band.coords), g["distance"].astype(np.float32))
+    (path,) = g["paths"]
+    assert g["reached_source"][0]
+    np.testing.assert_allclose(path[0], band.world[g["target_index"][0]])
+    np.testing.assert_allclose(path[-1], band.world[g["source_index"][0]])
+    # Pole to pole on the unit sphere: about half a great circle, pi.
+    assert g["path_length"][0] == pytest.approx(np.pi, rel=0.1)
+    cli = json.load(open(tmp_path / "path.json"))
+    cli_path = cli["paths"][0]["points"] if isinstance(cli, dict) else cli[0]["points"]
+    np.testing.assert_allclose(np.array(cli_path), path, rtol=1e-12)
+
+
+def test_spectrum_is_m_orthonormal_and_equals_the_command_line(band, sphere_obj, tmp_path):
+    values, vectors, info = band.spectrum(6)
+    assert values.shape == (6,) and vectors.shape == (len(band), 6)
+    assert np.all(np.diff(values) >= 0)
+    M = band.mu.astype(np.float64) * band.voxel_size ** 3
+    np.testing.assert_allclose(vectors.T @ (M[:, None] * vectors), np.eye(6), atol=1e-6)
+    run_cli("spectrum", sphere_obj, "-k", 6, "-o", tmp_path / "s.vdb", "--report", tmp_path / "s.json", *FLAGS)
+    np.testing.assert_allclose(values, json.load(open(tmp_path / "s.json"))["spectrum"]["eigenvalues"], rtol=1e-9)
+    # The unit sphere: lambda_1..3 - lambda_0 about l(l+1) = 2 (docs/spectrum.md).
+    np.testing.assert_allclose(values[1:4] - values[0], 2, rtol=0.2)
+    assert max(info["residuals"]) < 1e-6
+
+
+def test_regression_interpolates_exact_data(band):
+    rng = np.random.default_rng(5)
+    idx = rng.choice(np.flatnonzero(band.mu > np.median(band.mu)), 12, replace=False)
+    points = band.world[idx]
+    values = points[:, 2]
+    r = band.regress(points, values, k=30)
+    np.testing.assert_allclose(r["mean_at_data"], values, atol=1e-4)
+    assert np.all(r["variance"] >= 0) and r["mean"].shape == (len(band),)
+    with pytest.raises(gpisvdb.InputError, match="shape"):
+        band.regress(points, values[:3])
+
+
+def test_hodge_parts_sum_to_the_field_and_the_rotation_is_free(band):
+    h = band.hodge("mixed")
+    np.testing.assert_allclose(h["gradient"] + h["free"], h["input"], atol=1e-5)
+    assert h["solver"]["converged"] and h["divergence_residual"] < 1e-3
+    assert abs(h["s_inner_product"]) < 1e-4  # the parts are orthogonal in the S inner product (docs/hodge.md)
+    # A rotation about z is mostly free (the sphere is a faceted soup, not exactly one of revolution); the gradient
+    # of the height mostly a gradient.
+    rot, grad = band.hodge("rotation"), band.hodge("gradient")
+    assert np.linalg.norm(rot["free"]) > 1.5 * np.linalg.norm(rot["gradient"])
+    assert np.linalg.norm(grad["gradient"]) > 3 * np.linalg.norm(grad["free"])
+    with pytest.raises(gpisvdb.InputError, match=r"\(%d, 3\)" % len(band)):
+        band.hodge(np.zeros((3, 3)))
+    with pytest.raises(gpisvdb.ParameterError, match="preset|rotation"):
+        band.hodge("spiral")
+
+
+def test_smoothed_distance_grows_away_from_the_sphere(band):
+    d = band.smoothed_distance(20.0, grid_voxel_size=0.1)
+    values, H, origin = d["values"], d["voxel_size"], np.array(d["origin"])
+    assert H == pytest.approx(0.1)
+    centre = np.round((np.zeros(3) - origin) / H).astype(int)
+    corner = values[0, 0, 0]
+    on_surface = values[tuple(centre + np.array([0, 0, 10]))]  # (0, 0, 1)
+    assert on_surface < values[tuple(centre)] and on_surface < corner
+    with pytest.raises(gpisvdb.ParameterError, match="alpha"):
+        band.smoothed_distance(-1.0)
+
+
+def test_mean_surface_lies_on_the_sphere_and_carries_channels(band):
+    V, F, values = band.mean_surface()
+    assert len(F) > 100 and F.max() < len(V)
+    r = np.linalg.norm(V, axis=1)
+    assert r.min() > 0.85 and r.max() < 1.02  # inside the unit sphere: the mean surface of an inscribed soup
+    assert set(values) == {"mu", "stddev"} and values["mu"].shape == (len(V),)
+    V2, F2, extra = band.mean_surface(channels={"z": band.world[:, 2], "mean": band.mean})
+    np.testing.assert_array_equal(V2, V)
+    np.testing.assert_allclose(extra["z"], V2[:, 2], atol=1e-4)  # a linear field is interpolated exactly
+    np.testing.assert_allclose(extra["mean"], band.iso, atol=0.01)  # the vertices lie on gamma = u
