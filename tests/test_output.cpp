@@ -7,6 +7,7 @@
 
 #include <Eigen/SparseCore>
 #include <map>
+#include <openvdb/openvdb.h>
 
 #include "band_fixtures.h"
 #include "gpisvdb/core/errors.h"
@@ -141,6 +142,31 @@ Eigen::SparseMatrix<double> laplacianFromFile(const std::string& path, std::vect
 }
 
 }  // namespace
+
+TEST_CASE("output: grid classes and vector types are the ones Houdini and Blender read (fog mu, normalised normal)", "[output]") {
+    // No Houdini here (docs/guide.md): what its VDB nodes rely on is checked in the file instead. A fog volume
+    // renders as density; a covariant-normalise vec3 is transformed as a normal; invariant vectors are left alone.
+    Band band;
+    const std::string path = writeSmallBand(band);
+    openvdb::io::File file(path);
+    file.open();
+    const auto grids = file.getGrids();
+    file.close();
+    std::map<std::string, openvdb::GridBase::Ptr> byName;
+    for (const auto& g : *grids) byName[g->getName()] = g;
+    REQUIRE(byName.count("mu"));
+    CHECK(byName["mu"]->getGridClass() == openvdb::GRID_FOG_VOLUME);
+    CHECK(byName["mu"]->isType<openvdb::FloatGrid>());
+    REQUIRE(byName.count("normal"));
+    CHECK(byName["normal"]->isType<openvdb::Vec3SGrid>());
+    CHECK(byName["normal"]->getVectorType() == openvdb::VEC_COVARIANT_NORMALIZE);
+    for (const char* name : {"T_diag", "T_offdiag"}) {
+        INFO(name);
+        REQUIRE(byName.count(name));
+        CHECK(byName[name]->isType<openvdb::Vec3SGrid>());
+        CHECK(byName[name]->getVectorType() == openvdb::VEC_INVARIANT);
+    }
+}
 
 TEST_CASE("output: the Selling grids rebuild the Laplacian from the file alone", "[output]") {
     openvdb::initialize();
