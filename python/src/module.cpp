@@ -13,7 +13,6 @@
 #include <map>
 #include <memory>
 #include <optional>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -25,6 +24,7 @@
 #include "gpisvdb/model/load_model.h"
 #include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/output/mean_surface.h"
+#include "gpisvdb/output/temporary_path.h"
 #include "gpisvdb/output/write_vdb.h"
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/green.h"
@@ -385,14 +385,7 @@ openvdb::MetaMap bandMetadata(const PyBand& b, bool half) {
 /// no file (nor a partial one) behind.
 template <class Write>
 void writeAtomically(const std::string& path, Write&& write, int threads) {
-    namespace fs = std::filesystem;
-    const fs::path target(path);
-    std::error_code ec;
-    if (fs::is_directory(target, ec)) throw OutputError(path + ": is a directory, expected a file name");
-    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-    if (!fs::is_directory(dir, ec)) throw OutputError(path + ": the directory " + dir.string() + " does not exist");
-    std::random_device rd;
-    const std::string temp = (dir / (target.filename().string() + ".tmp-" + std::to_string(rd() % 1000000))).string();
+    const std::string temp = temporaryPathBeside(path);
     struct Remove {
         std::string p;
         bool keep = false;
@@ -407,7 +400,8 @@ void writeAtomically(const std::string& path, Write&& write, int threads) {
         return 0;
     });
     if (PyErr_CheckSignals() != 0) throw py::error_already_set();  // a Ctrl-C during the write: no file
-    fs::rename(temp, path, ec);
+    std::error_code ec;
+    std::filesystem::rename(temp, path, ec);
     if (ec) throw OutputError(path + ": cannot rename the finished file into place: " + ec.message());
     cleanup.keep = true;
 }

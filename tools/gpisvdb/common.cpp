@@ -25,6 +25,7 @@
 #include <tbb/global_control.h>
 
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/output/temporary_path.h"
 
 namespace gpisvdb::cli {
 
@@ -238,20 +239,12 @@ ModelOptions modelOptions(const ModelFlags& flags) {
     return o;
 }
 
-AtomicOutput::AtomicOutput(std::string path) : path_(std::move(path)) {
-    namespace fs = std::filesystem;
-    const fs::path target(path_);
-    std::error_code ec;
-    if (fs::is_directory(target, ec)) throw OutputError(path_ + ": is a directory, expected a file name");
-    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-    if (!fs::is_directory(dir, ec)) throw OutputError(path_ + ": the directory " + dir.string() + " does not exist");
-    std::random_device rd;
-    temp_ = (dir / (target.filename().string() + ".tmp-" + std::to_string(rd() % 1000000))).string();
+AtomicOutput::AtomicOutput(std::string path) : path_(std::move(path)), temp_(temporaryPathBeside(path_)) {
     registerTemporary(temp_, false);
     std::ofstream probe(temp_);
     if (!probe) {
         unregisterTemporary(temp_, false);
-        throw OutputError(path_ + ": cannot write in " + dir.string());
+        throw OutputError(path_ + ": cannot write in " + std::filesystem::path(temp_).parent_path().string());
     }
 }
 
