@@ -40,8 +40,9 @@ void noteSignal(int sig) {
     gInterrupted = true;
 }
 
-// Fallback only: every thread of ours blocks SIGINT and SIGTERM (installInterruptHandler), so this runs only if a
-// library started a thread before main that leaves them unblocked.
+// Installed for two reasons, though every thread of ours blocks SIGINT and SIGTERM (installInterruptHandler): a
+// disposition other than "ignore" (a shell starts background jobs with SIGINT ignored, and an ignored signal never
+// reaches the signalfd), and a thread a library started before main with the signals unblocked, which runs this.
 extern "C" void onSignal(int sig) {
     noteSignal(sig);
     if (gWakeWrite >= 0) {
