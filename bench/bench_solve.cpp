@@ -1,8 +1,10 @@
 // Operators and solvers (operators issue): paper Sec. 9 table on the bunny (band + operators, CG), our PCG
 // against Eigen's ConjugateGradient and OpenVDB's math::pcg::solve on the same system and tolerance, operator
 // applications per second, Jacobi against incomplete Cholesky, bytes per band voxel; tolerances below float's
-// reach: the float PCG alone against mixed-precision iterative refinement (issue 18 item 4).
-// Usage: bench_solve [--part table|solvers|tolerance|all] [--out bench/results/solve.json] [--data DIR] [--repeat R]
+// reach: the float PCG alone against mixed-precision iterative refinement (issue 18 item 4); the multigrid
+// preconditioner against Jacobi on nested bands (issue 18 item 3).
+// Usage: bench_solve [--part table|solvers|tolerance|multigrid|all] [--out bench/results/solve.json] [--data DIR]
+//                    [--repeat R] [--sigmas 0.25,0.5,1] [--scales 2,1,0.5] [--amg θ,entries,aggressive-levels]
 #include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
 #include <chrono>
@@ -27,6 +29,7 @@ namespace {
 
 using bench::seconds;
 int gRepeat = 5;
+BoomerAmgOptions gAmg;  // --amg θ,entries,aggressive
 
 template <class F>
 double median(F&& f) {
@@ -254,22 +257,106 @@ nlohmann::json tolerances(const Problem& p) {
     return row;
 }
 
+/// Jacobi (matrix-free, our default) against the multigrid preconditioner (BoomerAMG on the assembled L) on the
+/// Green's function's system to 1e-6: set-up, solve, iterations, memory, hierarchy.
+nlohmann::json multigridRow(const Problem& p, double tolerance) {
+    const Band& band = p.band;
+    const std::size_t n = band.size();
+    nlohmann::json row = {{"input", p.name}, {"sigma_rel", p.sigma}, {"h", band.voxelSize}, {"voxels", n}};
+    std::vector<float> b(n, 0.0f);
+    b[nearestBandVoxel(band, p.source)] = 1.0f;
+    PcgOptions o;
+    o.tolerance = tolerance;
+    o.maxIterations = 100000;
+    o.preconditioner = Preconditioner::Jacobi;
+    {
+        auto t = Clock::now();
+        const LaplacianOperator L(band);
+        const double operatorS = seconds(t);
+        t = Clock::now();
+        const PcgSolver solver(L, o);
+        const double setupS = seconds(t);
+        std::vector<float> x;
+        PcgResult r;
+        const double s = median([&] {
+            x.assign(n, 0.0f);
+            r = solver.solve(b, x);
+        });
+        row["jacobi"] = {{"operator_s", operatorS}, {"setup_s", setupS}, {"solve_s", s}, {"total_s", operatorS + setupS + s},
+                         {"iterations", r.iterations}, {"relative_residual", r.relativeResidual},
+                         {"bytes_per_voxel", double(solver.memoryBytes() + L.memoryBytes()) / double(n)}};
+    }
+    {
+        // The matrix-free operator; the solver assembles L for hypre's set-up and frees it.
+        auto t = Clock::now();
+        const LaplacianOperator L(band);
+        const double operatorS = seconds(t);
+        o.preconditioner = Preconditioner::Multigrid;
+        o.multigrid = gAmg;
+        t = Clock::now();
+        const PcgSolver solver(L, o);
+        const double setupS = seconds(t);
+        std::vector<float> x;
+        PcgResult r;
+        const double s = median([&] {
+            x.assign(n, 0.0f);
+            r = solver.solve(b, x);
+        });
+        row["multigrid"] = {{"operator_s", operatorS}, {"setup_s", setupS}, {"solve_s", s}, {"total_s", operatorS + setupS + s},
+                            {"iterations", r.iterations}, {"relative_residual", r.relativeResidual},
+                            {"levels", solver.multigrid()->levels()},
+                            {"options", {{"strong_threshold", o.multigrid.strongThreshold},
+                                         {"max_interpolation_entries", o.multigrid.maxInterpolationEntries},
+                                         {"aggressive_levels", o.multigrid.aggressiveLevels}}},
+                            {"operator_complexity", solver.multigrid()->operatorComplexity()},
+                            {"bytes_per_voxel", double(solver.memoryBytes() + L.memoryBytes()) / double(n)}};
+    }
+    row["speedup_total"] = row["jacobi"]["total_s"].get<double>() / row["multigrid"]["total_s"].get<double>();
+    return row;
+}
+
+std::vector<double> parseList(const std::string& s) {
+    std::vector<double> v;
+    std::size_t i = 0;
+    while (i < s.size()) {
+        std::size_t j = s.find(',', i);
+        if (j == std::string::npos) j = s.size();
+        v.push_back(std::stod(s.substr(i, j - i)));
+        i = j + 1;
+    }
+    return v;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     std::string part = "all", out = "bench/results/solve.json", data = "data";
+    std::vector<double> sigmas = {0.25, 0.5, 1.0}, scales = {2.0, 1.0, 0.5};
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--part" && i + 1 < argc) part = argv[++i];
         else if (a == "--out" && i + 1 < argc) out = argv[++i];
         else if (a == "--data" && i + 1 < argc) data = argv[++i];
         else if (a == "--repeat" && i + 1 < argc) gRepeat = std::max(1, std::stoi(argv[++i]));
+        else if (a == "--sigmas" && i + 1 < argc) sigmas = parseList(argv[++i]);
+        else if (a == "--scales" && i + 1 < argc) scales = parseList(argv[++i]);
+        else if (a == "--amg" && i + 1 < argc) {
+            const std::vector<double> v = parseList(argv[++i]);
+            if (v.size() != 3) {
+                std::cerr << "bench_solve: --amg takes θ,entries,aggressive-levels\n";
+                return 2;
+            }
+            gAmg.strongThreshold = v[0];
+            gAmg.maxInterpolationEntries = int(v[1]);
+            gAmg.aggressiveLevels = int(v[2]);
+        }
         else {
-            std::cerr << "usage: bench_solve [--part table|solvers|tolerance|all] [--out FILE.json] [--data DIR] [--repeat R]\n";
+            std::cerr << "usage: bench_solve [--part table|solvers|tolerance|multigrid|all] [--out FILE.json] [--data DIR] "
+                         "[--repeat R] [--sigmas S,...] [--scales C,...] [--amg θ,entries,aggressive]\n";
             return 2;
         }
     }
-    if (part != "table" && part != "solvers" && part != "tolerance" && part != "all") {
+    if (part != "table" && part != "solvers" && part != "tolerance" && part != "multigrid" && part != "all") {
         std::cerr << "bench_solve: unknown --part '" << part << "'\n";
         return 2;
     }
@@ -306,6 +393,18 @@ int main(int argc, char** argv) {
             std::cout << row["voxels"] << " voxels done" << std::endl;
             report["tolerances"].push_back(row);
         }
+    }
+    if (part == "multigrid" || part == "all") {
+        // Nested bands: each voxel size half the last gives ≈ 4× the voxels (a thin band: area / h², times the
+        // band's width in voxels, which also grows as h shrinks).
+        report["multigrid"] = nlohmann::json::array();
+        for (double sigma : sigmas)
+            for (double hScale : scales) {
+                const Problem p = bunnyBand(data, sigma, hScale);
+                const nlohmann::json row = multigridRow(p, 1e-6);
+                std::cout << row.dump() << std::endl;
+                report["multigrid"].push_back(row);
+            }
     }
     report.erase("preconditioners");
     std::ofstream(out) << report.dump(2) << "\n";

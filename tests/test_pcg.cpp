@@ -219,7 +219,13 @@ TEST_CASE("pcg: a zero right-hand side gives zero, bad options and inputs are re
     CHECK_THROWS_AS(solvePcg(L, ones, x, {-1.0, 10}), ParameterError);
     CHECK_THROWS_AS(solvePcg(L, ones, x, {std::nan(""), 10}), ParameterError);
     CHECK_THROWS_AS(solvePcg(L, ones, x, {1e-6, 0}), ParameterError);
-    CHECK_THROWS_AS(solvePcg(L, ones, x, {1e-6, 10, Preconditioner::IncompleteCholesky}), ParameterError);
+    // IC and multigrid need the operator's entries: the naive first-order Laplacian cannot be assembled.
+    const NaiveLaplacianOperator naive(band);
+    for (Preconditioner pc : {Preconditioner::IncompleteCholesky, Preconditioner::Multigrid}) {
+        PcgOptions o;
+        o.preconditioner = pc;
+        CHECK_THROWS_AS(solvePcg(naive, ones, x, o), ParameterError);
+    }
     CHECK_THROWS_AS(solvePcg(L, std::vector<float>(3, 1.0f), x), Error);
     std::vector<float> bad = ones;
     bad[7] = std::nanf("");
@@ -416,4 +422,152 @@ TEST_CASE("pcg: a second refined solve allocates nothing of size N, and toleranc
     std::vector<float> y;
     CHECK_THROWS_AS(solvePcg(L, b, y, options(1e-13)), ParameterError);
     CHECK_NOTHROW(PcgSolver(L, options(1e-12)));
+}
+
+// === The multigrid preconditioner (solve/boomer_amg.h: one BoomerAMG V-cycle)
+
+namespace {
+
+/// The torus band at h 0.03: ≈ 2e5 voxels, above kMultigridMinUnknowns (built once).
+const Band& fineTorusBand() {
+    static const Band band = test::bandOf(torus(48, 16), 1.0, 0.03);
+    return band;
+}
+
+PcgOptions multigridOptions(double tolerance) {
+    PcgOptions o = options(tolerance);
+    o.preconditioner = Preconditioner::Multigrid;
+    return o;
+}
+
+}  // namespace
+
+TEST_CASE("pcg: the multigrid and Jacobi preconditioners reach the same solution, matrix-free and assembled", "[pcg][multigrid]") {
+    const Band& band = test::torusGapBand();
+    const std::vector<float> b = unitSource(band);
+    const Eigen::VectorXd exact = directSolve(band, b);
+    std::vector<float> xj;
+    PcgOptions jacobi = options(1e-6);
+    jacobi.preconditioner = Preconditioner::Jacobi;
+    const PcgResult rj = solvePcg(LaplacianOperator(band), b, xj, jacobi);
+    REQUIRE(rj.converged);
+    const SparseMatrixF A = assembleLaplacian(band);
+    const LaplacianOperator matrixFree(band);
+    const AssembledOperator assembled(A);
+    for (const SymmetricOperator* op : {static_cast<const SymmetricOperator*>(&matrixFree), static_cast<const SymmetricOperator*>(&assembled)}) {
+        const PcgSolver solver(*op, multigridOptions(1e-6));
+        REQUIRE(solver.preconditioner() == Preconditioner::Multigrid);
+        REQUIRE(solver.multigrid());
+        std::vector<float> x;
+        const PcgResult r = solver.solve(b, x);
+        INFO(band.size() << " voxels: Jacobi " << rj.iterations << " iterations, multigrid " << r.iterations << " ("
+             << solver.multigrid()->levels() << " levels, operator complexity " << solver.multigrid()->operatorComplexity() << ")");
+        REQUIRE(r.converged);
+        // The reported residual is the true one: from the stencils for the matrix-free L, of the float entries for
+        // the assembled one (they differ by ~1e-6: the first test case).
+        const double truth = op == &matrixFree ? stencilResidual(band, x, b)
+                                               : (A.cast<double>() * asDouble(x) - asDouble(b)).norm() / asDouble(b).norm();
+        CHECK(r.relativeResidual == Approx(truth).epsilon(0.05));
+        // A V-cycle does far more than a Jacobi sweep: here 8× fewer iterations at least (measured 12 against 180).
+        CHECK(8 * r.iterations <= rj.iterations);
+        // Both solutions against the direct solve, to the residual's tolerance times twenty, and against each other.
+        const Eigen::VectorXd xd = asDouble(x);
+        CHECK((xd - exact).norm() <= 2e-5 * exact.norm());
+        CHECK((xd - asDouble(xj)).norm() <= 4e-5 * exact.norm());
+        CHECK(xd.minCoeff() > 0);  // L⁻¹ > 0 entrywise (first test case)
+        CHECK(solver.multigrid()->levels() >= 2);
+        CHECK(solver.multigrid()->operatorComplexity() >= 1.0);
+        CHECK(solver.multigrid()->operatorComplexity() < 3.0);
+        // Beyond Jacobi's work vectors, the hierarchy: at least hypre's copy of L (12 bytes per entry).
+        CHECK(solver.memoryBytes() >= std::size_t(A.nonZeros()) * 12);
+    }
+}
+
+TEST_CASE("pcg: multigrid iterations stay nearly flat on nested bands while Jacobi's grow", "[pcg][multigrid]") {
+    // The bunny-like study of bench_solve --part multigrid at test scale: a torus band at h, h/2 and h/4 (each about
+    // 4× the voxels of the last; a thin band's count grows like h⁻² to h⁻³). Issue 18 asks for ≤ 1.5× iterations per
+    // 8× voxels; the growth per 8× is (iterations ratio)^(log 8 / log(voxel ratio)).
+    const TriangleSoup ring = torus(48, 16);
+    std::vector<std::size_t> voxels;
+    std::vector<int> multigrid, jacobi;
+    const Band coarse = test::bandOf(ring, 1.0, 0.12), middle = test::bandOf(ring, 1.0, 0.06);
+    for (const Band* bandPtr : {&coarse, &middle, &fineTorusBand()}) {
+        const Band& band = *bandPtr;
+        const double h = band.voxelSize;
+        const std::vector<float> b = unitSource(band);
+        const LaplacianOperator L(band);
+        std::vector<float> x;
+        const PcgResult rm = solvePcg(L, b, x, multigridOptions(1e-6));
+        PcgOptions o = options(1e-6);
+        o.preconditioner = Preconditioner::Jacobi;
+        x.clear();
+        const PcgResult rj = solvePcg(L, b, x, o);
+        REQUIRE(rm.converged);
+        REQUIRE(rj.converged);
+        voxels.push_back(band.size());
+        multigrid.push_back(rm.iterations);
+        jacobi.push_back(rj.iterations);
+        UNSCOPED_INFO("h " << h << ": " << band.size() << " voxels, multigrid " << rm.iterations << ", Jacobi " << rj.iterations);
+    }
+    for (std::size_t k = 1; k < voxels.size(); ++k) {
+        const double exponent = std::log(8.0) / std::log(double(voxels[k]) / double(voxels[k - 1]));
+        CHECK(double(voxels[k]) > 2.5 * double(voxels[k - 1]));
+        CHECK(std::pow(double(multigrid[k]) / double(multigrid[k - 1]), exponent) <= 1.5);
+        // Jacobi's count grows like the band's diameter in voxels: the contrast that makes the test mean something.
+        CHECK(std::pow(double(jacobi[k]) / double(jacobi[k - 1]), exponent) >= 1.5);
+    }
+}
+
+TEST_CASE("pcg: multigrid solves are identical for 1 and 2 threads, and reach 1e-10 by refinement", "[pcg][multigrid]") {
+    const Band& band = test::torusGapBand();
+    const LaplacianOperator L(band);
+    const std::vector<float> b = unitSource(band);
+    std::vector<float> x1, x2;
+    PcgResult r1, r2;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        r1 = solvePcg(L, b, x1, multigridOptions(1e-6));
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        r2 = solvePcg(L, b, x2, multigridOptions(1e-6));
+    }
+    CHECK(r1.iterations == r2.iterations);
+    CHECK(x1 == x2);
+    // Below float's reach the refinement's inner solves are multigrid-preconditioned too.
+    std::vector<double> bd(b.begin(), b.end()), x;
+    const PcgResult r = solvePcg(L, bd, x, multigridOptions(1e-10));
+    INFO(r.iterations << " iterations in " << r.refinements << " refinements, residual " << r.relativeResidual);
+    CHECK(r.converged);
+    CHECK(r.refinements >= 1);
+    CHECK(stencilResidual(band, x, bd) <= 1e-10);
+}
+
+TEST_CASE("pcg: the automatic preconditioner is Jacobi on small or unassemblable operators, multigrid on large bands", "[pcg][multigrid]") {
+    const Band& band = test::torusGapBand();
+    REQUIRE(band.size() < kMultigridMinUnknowns);
+    const LaplacianOperator L(band);
+    CHECK(resolvePreconditioner(Preconditioner::Automatic, L) == Preconditioner::Jacobi);
+    CHECK(PcgSolver(L).preconditioner() == Preconditioner::Jacobi);
+    CHECK(resolvePreconditioner(Preconditioner::Multigrid, L) == Preconditioner::Multigrid);
+    const Band& large = fineTorusBand();
+    REQUIRE(large.size() >= kMultigridMinUnknowns);
+    const LaplacianOperator Llarge(large);
+    CHECK(resolvePreconditioner(Preconditioner::Automatic, Llarge) == Preconditioner::Multigrid);
+    CHECK(resolvePreconditioner(Preconditioner::Automatic, NaiveLaplacianOperator(large)) == Preconditioner::Jacobi);
+}
+
+TEST_CASE("pcg: bad multigrid options are refused", "[pcg][multigrid]") {
+    const Band& band = test::sphereBand();
+    const LaplacianOperator L(band);
+    for (auto set : std::initializer_list<void (*)(BoomerAmgOptions&)>{
+             [](BoomerAmgOptions& o) { o.strongThreshold = 0; }, [](BoomerAmgOptions& o) { o.strongThreshold = 1; },
+             [](BoomerAmgOptions& o) { o.strongThreshold = std::nan(""); },
+             [](BoomerAmgOptions& o) { o.maxInterpolationEntries = 0; }, [](BoomerAmgOptions& o) { o.aggressiveLevels = -1; }}) {
+        PcgOptions o = multigridOptions(1e-6);
+        set(o.multigrid);
+        CHECK_THROWS_AS(PcgSolver(L, o), ParameterError);
+    }
+    CHECK_THROWS_AS(BoomerAmg(SparseMatrixF(0, 0)), ParameterError);
+    CHECK_THROWS_AS(BoomerAmg(SparseMatrixF(3, 4)), ParameterError);
 }

@@ -440,9 +440,11 @@ PcgOptions pcgOptions(double tolerance, int maxIterations, const std::string& pr
     PcgOptions o;
     o.tolerance = tolerance;
     o.maxIterations = maxIterations;
-    if (preconditioner == "jacobi") o.preconditioner = Preconditioner::Jacobi;
+    if (preconditioner == "auto") o.preconditioner = Preconditioner::Automatic;
+    else if (preconditioner == "multigrid") o.preconditioner = Preconditioner::Multigrid;
+    else if (preconditioner == "jacobi") o.preconditioner = Preconditioner::Jacobi;
     else if (preconditioner == "ic") o.preconditioner = Preconditioner::IncompleteCholesky;
-    else throw ParameterError("preconditioner must be 'jacobi' or 'ic', got '" + preconditioner + "'");
+    else throw ParameterError("preconditioner must be 'auto', 'multigrid', 'jacobi' or 'ic', got '" + preconditioner + "'");
     if (!(tolerance > 0) || !std::isfinite(tolerance)) throw ParameterError("tolerance must be finite and > 0");
     if (maxIterations < 1) throw ParameterError("max_iterations must be >= 1");
     return o;
@@ -450,7 +452,7 @@ PcgOptions pcgOptions(double tolerance, int maxIterations, const std::string& pr
 
 py::dict solverInfo(const PcgResult& r) {
     return py::dict("iterations"_a = r.iterations, "relative_residual"_a = r.relativeResidual, "restarts"_a = r.restarts,
-                    "converged"_a = r.converged);
+                    "converged"_a = r.converged, "preconditioner"_a = preconditionerName(r.preconditioner));
 }
 
 py::dict green(const PyBand& b, py::handle source, double tolerance, int maxIterations, const std::string& preconditioner,
@@ -459,15 +461,8 @@ py::dict green(const PyBand& b, py::handle source, double tolerance, int maxIter
     const PcgOptions po = pcgOptions(tolerance, maxIterations, preconditioner);
     Work work(threads, std::move(progress));
     GreenResult g = work([&](const Progress& progress) {
-        std::unique_ptr<SymmetricOperator> L;
-        SparseMatrixF assembled;
-        if (po.preconditioner == Preconditioner::IncompleteCholesky) {
-            assembled = assembleLaplacian(b.band());
-            L = std::make_unique<AssembledOperator>(assembled);
-        } else {
-            L = std::make_unique<LaplacianOperator>(b.band());
-        }
-        return greensFunction(b.band(), *L, y, po, progress);
+        const LaplacianOperator L(b.band());  // IC and multigrid assemble it for their set-up
+        return greensFunction(b.band(), L, y, po, progress);
     });
     return py::dict("values"_a = copyOf<float>(g.values), "source_index"_a = g.sourceIndex, "solver"_a = solverInfo(g.solver));
 }
@@ -885,11 +880,12 @@ Grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width; with stencils=
 as float grids and `vectors` (dict name -> (N, 3) array) as vec3 grids. half=True stores 16-bit floats.
 Written under a temporary name and renamed: an error or Ctrl-C leaves no file. Raises OutputError.)doc")
         .def("green", &green, "source"_a, py::kw_only(), "tolerance"_a = PcgOptions{}.tolerance,
-             "max_iterations"_a = PcgOptions{}.maxIterations, "preconditioner"_a = "jacobi", "threads"_a = 0, "progress"_a = py::none(),
+             "max_iterations"_a = PcgOptions{}.maxIterations, "preconditioner"_a = "auto", "threads"_a = 0, "progress"_a = py::none(),
              R"doc(The Green's function of the GPIS Laplacian from a source point (x, y, z, world units; snapped to the nearest
 voxel): solves L f = M delta_y by PCG (docs/operators.md), as `gpisvdb green`.
 Returns {'values': (N,) float32 G(., y), 'source_index': int, 'solver': {iterations, relative_residual, restarts,
-converged}}. tolerance: PCG relative residual (> 0); preconditioner 'jacobi' or 'ic'.)doc")
+converged, preconditioner}}. tolerance: PCG relative residual (> 0); preconditioner 'auto' (multigrid from 1e5
+voxels, Jacobi below), 'multigrid' (hypre BoomerAMG), 'jacobi' or 'ic'.)doc")
         .def("geodesic", &geodesic, "sources"_a, "targets"_a = py::none(), py::kw_only(), "stop_at_targets"_a = false,
              "threads"_a = 0, "progress"_a = py::none(),
              R"doc(Geodesic distance on the GPIS by Hamiltonian fast marching (docs/geodesic.md), as `gpisvdb geodesic`.

@@ -22,6 +22,24 @@ def test_green_equals_the_command_line(band, sphere_obj, tmp_path):
     assert np.argmax(g["values"]) == g["source_index"]
 
 
+def test_green_multigrid_equals_jacobi_within_the_tolerance_and_matches_the_command_line(band, sphere_obj, tmp_path):
+    jacobi = band.green(SOURCE, preconditioner="jacobi")
+    multigrid = band.green(SOURCE, preconditioner="multigrid")
+    assert jacobi["solver"]["preconditioner"] == "Jacobi"
+    assert multigrid["solver"]["preconditioner"] == "multigrid"
+    assert multigrid["solver"]["converged"]
+    assert multigrid["solver"]["iterations"] < jacobi["solver"]["iterations"]
+    # Two solutions at relative residual 1e-6: within a few 1e-5 of each other (the conditioning of L here).
+    scale = np.linalg.norm(jacobi["values"])
+    assert np.linalg.norm(multigrid["values"] - jacobi["values"]) <= 5e-5 * scale
+    run_cli("green", sphere_obj, "--source", "%g,%g,%g" % SOURCE, "-o", tmp_path / "green.vdb",
+            "--preconditioner", "multigrid", *FLAGS)
+    dense, lo = read_grid(tmp_path / "green.vdb", "green")
+    np.testing.assert_array_equal(at_coords(dense, lo, band.coords), multigrid["values"])
+    with pytest.raises(gpisvdb.ParameterError):
+        band.green(SOURCE, preconditioner="amg")
+
+
 def test_geodesic_equals_the_command_line_and_its_path_joins_target_to_source(band, sphere_obj, tmp_path):
     g = band.geodesic(SOURCE, TARGET)
     assert g["distance"].shape == (len(band),) and g["unreached"] == 0

@@ -140,12 +140,18 @@ void requireConverged(const PcgResult& r, const PcgOptions& options) {
 }
 
 nlohmann::json solverReport(const PcgResult& r, const PcgOptions& options) {
-    std::string method = options.preconditioner == Preconditioner::Jacobi ? "PCG, Jacobi" : "PCG, incomplete Cholesky";
+    std::string method = std::string("PCG, ") + preconditionerName(r.preconditioner);
+    if (r.preconditioner == Preconditioner::Multigrid) method += " (hypre BoomerAMG)";
     if (r.refinements > 0) method += ", refined in double";
-    return {{"method", method}, {"iterations", r.iterations}, {"restarts", r.restarts},
-            {"refinements", r.refinements}, {"inner_iterations", r.innerIterations},
-            {"relative_residual", r.relativeResidual}, {"float_residual", r.floatResidual},
-            {"tolerance", options.tolerance}};
+    nlohmann::json report = {{"method", method}, {"preconditioner", preconditionerName(r.preconditioner)},
+                             {"preconditioner_requested", preconditionerName(options.preconditioner)},
+                             {"iterations", r.iterations}, {"restarts", r.restarts},
+                             {"refinements", r.refinements}, {"inner_iterations", r.innerIterations},
+                             {"relative_residual", r.relativeResidual}, {"float_residual", r.floatResidual},
+                             {"tolerance", options.tolerance}};
+    if (r.preconditioner == Preconditioner::Multigrid)
+        report["multigrid"] = {{"levels", r.multigridLevels}, {"operator_complexity", r.multigridComplexity}};
+    return report;
 }
 
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {

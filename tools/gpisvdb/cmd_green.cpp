@@ -28,8 +28,11 @@ void addGreen(CLI::App& app, Action& action) {
     addBandFlags(*cmd, a->flags);
     cmd->add_option("--tolerance", a->solver.tolerance, "PCG relative residual to reach (>= 1e-12; below 1e-6 the PCG refines in double)")->capture_default_str();
     cmd->add_option("--max-iterations", a->solver.maxIterations, "PCG iteration cap (>= 1)")->capture_default_str();
-    cmd->add_option("--preconditioner", a->solver.preconditioner, "jacobi (default: measured fastest) or ic (incomplete Cholesky)")
+    cmd->add_option("--preconditioner", a->solver.preconditioner,
+                    "auto (default: multigrid from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG), jacobi "
+                    "or ic (incomplete Cholesky)")
         ->transform(CLI::CheckedTransformer(std::map<std::string, Preconditioner>{
+            {"auto", Preconditioner::Automatic}, {"multigrid", Preconditioner::Multigrid},
             {"jacobi", Preconditioner::Jacobi}, {"ic", Preconditioner::IncompleteCholesky}}));
     cmd->footer("Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
                 "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json");
@@ -44,19 +47,13 @@ void addGreen(CLI::App& app, Action& action) {
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
             const BandJob& job = run.job;
             const Band& band = job.result.band;
-            // === Operators (matrix-free L; assembled for the incomplete Cholesky factor), then L f = M δ_y
+            // === The matrix-free L (the incomplete Cholesky and multigrid set-ups assemble it and keep only their
+            //     own data), then L f = M δ_y
             const auto tOps = Clock::now();
-            std::unique_ptr<SymmetricOperator> L;
-            SparseMatrixF assembled;
-            if (a->solver.preconditioner == Preconditioner::IncompleteCholesky) {
-                assembled = assembleLaplacian(band);
-                L = std::make_unique<AssembledOperator>(assembled);
-            } else {
-                L = std::make_unique<LaplacianOperator>(band);
-            }
+            const LaplacianOperator L(band);
             const double secondsOps = std::chrono::duration<double>(Clock::now() - tOps).count();
             const auto tSolve = Clock::now();
-            const GreenResult g = greensFunction(band, *L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, run.progress);
+            const GreenResult g = greensFunction(band, L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             requireConverged(g.solver, a->solver);
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
@@ -67,6 +64,7 @@ void addGreen(CLI::App& app, Action& action) {
             meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(g.solver.relativeResidual));
             meta.insertMeta("solver_float_residual", openvdb::DoubleMetadata(g.solver.floatResidual));
             meta.insertMeta("solver_refinements", openvdb::Int32Metadata(g.solver.refinements));
+            meta.insertMeta("solver_preconditioner", openvdb::StringMetadata(preconditionerName(g.solver.preconditioner)));
             writeBandVdb(band, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
             run.out->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
@@ -81,7 +79,8 @@ void addGreen(CLI::App& app, Action& action) {
                 commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet)
-                std::cerr << "green: " << band.size() << " voxels, PCG " << g.solver.iterations << " iterations to "
+                std::cerr << "green: " << band.size() << " voxels, PCG (" << preconditionerName(g.solver.preconditioner)
+                          << ") " << g.solver.iterations << " iterations to "
                           << g.solver.relativeResidual << ", " << total << " s\n";
         };
     });

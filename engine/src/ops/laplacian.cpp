@@ -143,6 +143,8 @@ void LaplacianOperator::apply(const double* u, double* out) const {
     scatterLaplacian(band_, schedule_->scatter, schedule_->neighbour.data(), u, out);
 }
 
+SparseMatrixF LaplacianOperator::assemble() const { return assembleLaplacian(band_); }
+
 void LaplacianOperator::diagonal(float* out) const {
     const Band& band = band_;
     const float halfH = float(0.5 * band.voxelSize);

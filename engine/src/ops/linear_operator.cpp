@@ -33,6 +33,11 @@ void multiply(const SparseMatrixF& A, const std::vector<float>& u, std::vector<f
     multiply(A, u.data(), out.data());
 }
 
+SparseMatrixF SymmetricOperator::assemble() const {
+    if (const SparseMatrixF* M = matrix()) return *M;
+    throw Error("this operator cannot be assembled (it holds no matrix and knows no assembly)");
+}
+
 void AssembledOperator::diagonal(float* out) const {
     for (int i = 0; i < A_.rows(); ++i) out[i] = A_.coeff(i, i);
 }

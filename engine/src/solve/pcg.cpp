@@ -10,6 +10,7 @@
 #include <tbb/partitioner.h>
 
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/solve/boomer_amg.h"
 
 namespace gpisvdb {
 
@@ -57,23 +58,29 @@ struct PcgSolver::Impl {
     std::unique_ptr<IncompleteFactor> ic; // IC
     std::vector<int> perm;                // IC: (P r)_k = r[perm[k]]
     std::vector<float> scale;             // IC: the factor's diagonal scaling S
+    std::unique_ptr<BoomerAmg> amg;       // Multigrid
     // Refinement, allocated at the first refined solve and kept for the next ones
     mutable std::vector<double> residual;  // b − A x in double
     mutable std::vector<float> innerB, innerX;  // the correction's right-hand side r/‖r‖ and its solution
     mutable std::vector<double> wide;      // float API: x in double; double API: x rounded to float, widened
 
     Impl(const SymmetricOperator& op, const PcgOptions& o) : A(op), options(o), n(op.size()), r(n), z(n), p(n), Ap(n) {
+        options.preconditioner = resolvePreconditioner(o.preconditioner, op);
         if (options.preconditioner == Preconditioner::IncompleteCholesky) {
-            const SparseMatrixF* M = A.matrix();
-            if (!M) throw ParameterError("the incomplete Cholesky preconditioner needs the assembled operator");
+            if (!A.assemblable()) throw ParameterError("the incomplete Cholesky preconditioner needs an operator that can be assembled");
             ic = std::make_unique<IncompleteFactor>();
-            ic->compute(Eigen::SparseMatrix<float, Eigen::ColMajor, int>(*M));
+            ic->compute(Eigen::SparseMatrix<float, Eigen::ColMajor, int>(A.matrix() ? *A.matrix() : A.assemble()));
             if (ic->info() != Eigen::Success) throw Error("the incomplete Cholesky factorisation failed");
             // Eigen's (P r)[P.indices()[i]] = r[i]; an empty P is the identity.
             const auto& P = ic->permutationP();
             perm.resize(n);
             for (std::size_t i = 0; i < n; ++i) perm[P.size() == long(n) ? std::size_t(P.indices()[long(i)]) : i] = int(i);
             scale.assign(ic->scalingS().data(), ic->scalingS().data() + n);
+        } else if (options.preconditioner == Preconditioner::Multigrid) {
+            if (!A.assemblable()) throw ParameterError("the multigrid preconditioner needs an operator that can be assembled");
+            // hypre copies the entries: a matrix assembled here lives only through the set-up.
+            amg = A.matrix() ? std::make_unique<BoomerAmg>(*A.matrix(), options.multigrid)
+                             : std::make_unique<BoomerAmg>(A.assemble(), options.multigrid);
         } else {
             invDiag.resize(n);
             A.diagonal(invDiag.data());
@@ -84,6 +91,10 @@ struct PcgSolver::Impl {
     /// z = P⁻¹ r. IC applies Eigen's factor by hand (permute, scale, two in-place triangular solves) so that it
     /// allocates nothing; Eigen's own solve() allocates an N-sized mask to permute in place.
     void precondition() const {
+        if (amg) {
+            amg->apply(r.data(), z.data());
+            return;
+        }
         if (!ic) {
             forEach(n, [&](std::size_t i) { z[i] = invDiag[i] * r[i]; });
             return;
@@ -202,11 +213,36 @@ struct PcgSolver::Impl {
         return trueResidual(b, wide.data()) / bNorm;
     }
 
+    /// What ran, for the caller's report.
+    PcgResult& stamp(PcgResult& res) const {
+        res.preconditioner = options.preconditioner;
+        if (amg) {
+            res.multigridLevels = amg->levels();
+            res.multigridComplexity = amg->operatorComplexity();
+        }
+        return res;
+    }
+
     bool refinesFromStart() const {
         return options.refinement == Refinement::Always ||
                (options.refinement == Refinement::Automatic && options.tolerance < kFloatPcgReach);
     }
 };
+
+const char* preconditionerName(Preconditioner p) {
+    switch (p) {
+        case Preconditioner::Automatic: return "automatic";
+        case Preconditioner::Jacobi: return "Jacobi";
+        case Preconditioner::IncompleteCholesky: return "incomplete Cholesky";
+        case Preconditioner::Multigrid: return "multigrid";
+    }
+    return "?";
+}
+
+Preconditioner resolvePreconditioner(Preconditioner requested, const SymmetricOperator& A) {
+    if (requested != Preconditioner::Automatic) return requested;
+    return A.size() >= kMultigridMinUnknowns && A.assemblable() ? Preconditioner::Multigrid : Preconditioner::Jacobi;
+}
 
 PcgSolver::PcgSolver(const SymmetricOperator& A, const PcgOptions& o) {
     if (!(o.tolerance > 0) || !std::isfinite(o.tolerance)) throw ParameterError("the PCG tolerance (PcgOptions::tolerance) must be finite and > 0", {"PcgOptions::tolerance"});
@@ -226,7 +262,13 @@ std::size_t PcgSolver::memoryBytes() const {
                          m.scale.capacity() + m.innerB.capacity() + m.innerX.capacity()) * sizeof(float) +
                         (m.residual.capacity() + m.wide.capacity()) * sizeof(double) + m.perm.capacity() * sizeof(int);
     if (m.ic) bytes += std::size_t(m.ic->matrixL().nonZeros()) * (sizeof(float) + sizeof(int)) + (m.n + 1) * sizeof(int);
+    if (m.amg) bytes += m.amg->memoryBytes();
     return bytes;
+}
+
+Preconditioner PcgSolver::preconditioner() const { return impl_->options.preconditioner; }
+
+const BoomerAmg* PcgSolver::multigrid() const { return impl_->amg.get();
 }
 
 PcgResult PcgSolver::solve(const std::vector<float>& b, std::vector<float>& x, const Progress& progress) const {
@@ -240,7 +282,7 @@ PcgResult PcgSolver::solve(const std::vector<float>& b, std::vector<float>& x, c
         std::fill(x.begin(), x.end(), 0.0f);
         PcgResult res;
         res.converged = true;
-        return res;
+        return m.stamp(res);
     }
     PcgResult res;
     if (!m.refinesFromStart()) {
@@ -248,7 +290,7 @@ PcgResult PcgSolver::solve(const std::vector<float>& b, std::vector<float>& x, c
         res = m.pcg(b.data(), x.data(), bNorm, m.options.tolerance, m.options.maxIterations, 1.0, m.options.tolerance, progress);
         if (res.converged || m.options.refinement == Refinement::Off || res.iterations >= m.options.maxIterations) {
             progress.update("solve", 1.0);
-            return res;
+            return m.stamp(res);
         }
     }
     // === Stalled above the tolerance, or asked below float's reach: refine in double from x
@@ -261,7 +303,7 @@ PcgResult PcgSolver::solve(const std::vector<float>& b, std::vector<float>& x, c
     });
     res.floatResidual = m.floatResidualOf(b.data(), bNorm);
     progress.update("solve", 1.0);
-    return res;
+    return m.stamp(res);
 }
 
 PcgResult PcgSolver::solve(const std::vector<double>& b, std::vector<double>& x, const Progress& progress) const {
@@ -275,7 +317,7 @@ PcgResult PcgSolver::solve(const std::vector<double>& b, std::vector<double>& x,
     if (bNorm == 0) {
         std::fill(x.begin(), x.end(), 0.0);
         res.converged = true;
-        return res;
+        return m.stamp(res);
     }
     if (m.options.refinement == Refinement::Off) {
         // The float PCG alone, on b and x rounded to float (in the refinement's float buffers)
@@ -301,7 +343,7 @@ PcgResult PcgSolver::solve(const std::vector<double>& b, std::vector<double>& x,
         res.converged = res.relativeResidual <= m.options.tolerance;
     }
     progress.update("solve", 1.0);
-    return res;
+    return m.stamp(res);
 }
 
 PcgResult solvePcg(const SymmetricOperator& A, const std::vector<float>& b, std::vector<float>& x, const PcgOptions& o,

@@ -38,6 +38,9 @@ public:
     /// The same sums, accumulated straight into `out` (which therefore must not alias u).
     void apply(const double* u, double* out) const override;
     void diagonal(float* out) const override;
+    bool assemblable() const override { return true; }
+    /// assembleLaplacian(band): the same matrix as the stencils apply.
+    SparseMatrixF assemble() const override;
     using SymmetricOperator::apply;
     /// Bytes held by the operator itself (neighbour indices, accumulator, schedule), beyond the band.
     std::size_t memoryBytes() const;

@@ -29,6 +29,10 @@ public:
     virtual void diagonal(float* out) const = 0;
     /// The matrix itself when the operator holds one (for factorisations), else nullptr.
     virtual const SparseMatrixF* matrix() const { return nullptr; }
+    /// Whether assemble() gives the operator's matrix (preconditioners that need entries set up from it).
+    virtual bool assemblable() const { return matrix() != nullptr; }
+    /// The operator's matrix, assembled (a copy when it holds one). Throws Error when !assemblable().
+    virtual SparseMatrixF assemble() const;
 
     void apply(const std::vector<float>& u, std::vector<float>& out) const {
         out.resize(size());

@@ -19,14 +19,26 @@
 
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/ops/linear_operator.h"
+#include "gpisvdb/solve/boomer_amg.h"
 
 namespace gpisvdb {
 
 enum class Preconditioner {
+    Automatic,           ///< Multigrid for an assemblable operator of ≥ kMultigridMinUnknowns unknowns, else Jacobi
     Jacobi,              ///< diag(A)⁻¹: parallel, no set-up, works matrix-free
     IncompleteCholesky,  ///< Eigen's IC(0) with AMD ordering and diagonal shift on the assembled matrix: fewer
                          ///< iterations, serial set-up and triangular solves
+    Multigrid,           ///< one V-cycle of hypre's BoomerAMG (solve/boomer_amg.h) on the operator's matrix
+                         ///< (assembled for the set-up and then freed): iterations nearly flat in N; serial
+                         ///< set-up and cycles; ≈ 300 B per unknown more than Jacobi
 };
+
+/// Below this many unknowns Jacobi reaches 1e-6 sooner than the multigrid's set-up and cycles (measured on bunny
+/// bands: docs/operators.md#multigrid).
+constexpr std::size_t kMultigridMinUnknowns = 100000;
+
+/// The preconditioner Automatic resolves to for this operator (the others resolve to themselves).
+Preconditioner resolvePreconditioner(Preconditioner requested, const SymmetricOperator& A);
 
 /// Smallest tolerance accepted: met on every band measured (4.8e-13 on the bunny bands); below it double's own
 /// rounding of b − A x (≈ 1e-16 · ‖A‖ ‖x‖ / ‖b‖) comes within reach of the tolerance.
@@ -44,8 +56,9 @@ enum class Refinement {
 struct PcgOptions {
     double tolerance = 1e-6;     ///< relative residual ‖b − A x‖ / ‖b‖ to reach (≥ kMinPcgTolerance = 1e-12)
     int maxIterations = 10000;   ///< cap on all PCG iterations of a solve, the refinement's inner ones included (≥ 1)
-    Preconditioner preconditioner = Preconditioner::Jacobi;  ///< measured faster to tolerance (docs/operators.md)
+    Preconditioner preconditioner = Preconditioner::Automatic;  ///< measured choice (docs/operators.md#multigrid)
     Refinement refinement = Refinement::Automatic;  ///< when to refine in double (above)
+    BoomerAmgOptions multigrid = {};  ///< the hierarchy, when preconditioner is Multigrid
 };
 
 struct PcgResult {
@@ -60,13 +73,19 @@ struct PcgResult {
     /// of x alone leaves ≈ 1e-8 … 1e-6 here when refined. Equal to relativeResidual on the plain float path.
     double floatResidual = 0;
     bool converged = false;       ///< relativeResidual ≤ tolerance
+    Preconditioner preconditioner = Preconditioner::Jacobi;  ///< the one used (Automatic resolved)
+    int multigridLevels = 0;            ///< Multigrid: levels of the hierarchy (0 otherwise)
+    double multigridComplexity = 0;     ///< Multigrid: Σ nonzeros of all levels / nonzeros of A (0 otherwise)
 };
+
+/// "Jacobi", "incomplete Cholesky", "multigrid" or "automatic" (for reports and messages).
+const char* preconditionerName(Preconditioner p);
 
 /// A PCG bound to one operator: the preconditioner is set up and the work vectors allocated at construction.
 /// The operator must outlive the solver. One solve at a time per object.
 class PcgSolver {
 public:
-    /// Throws ParameterError for bad options, or for IC on an operator that holds no matrix.
+    /// Throws ParameterError for bad options, or for IC or Multigrid on an operator that cannot be assembled.
     explicit PcgSolver(const SymmetricOperator& A, const PcgOptions& options = {});
     ~PcgSolver();
     /// Solves A x = b; x holds the initial guess on entry (resized to N and zeroed if it has another length).
@@ -77,6 +96,10 @@ public:
     PcgResult solve(const std::vector<double>& b, std::vector<double>& x, const Progress& progress = {}) const;
     /// Bytes held by the work vectors and the preconditioner (and the refinement's, once a solve has refined).
     std::size_t memoryBytes() const;
+    /// The preconditioner in use (Automatic resolved).
+    Preconditioner preconditioner() const;
+    /// The multigrid hierarchy (levels, complexity) when the preconditioner is Multigrid, else nullptr.
+    const BoomerAmg* multigrid() const;
 
 private:
     struct Impl;

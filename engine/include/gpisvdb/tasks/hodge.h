@@ -22,7 +22,11 @@ struct HodgeOptions {
     /// and the float PCG alone stalls near 1e-6 on real bands (measured on the bunny; 1.6e-6 on a unit sphere at
     /// σ_rel 0.25, h 0.03). Where it stalls above the tolerance, or the tolerance is below kFloatPcgReach, the
     /// solve continues by iterative refinement in double (solve/pcg.h), with the right-hand side and ψ in double.
-    PcgOptions solver{1e-5};
+    PcgOptions solver = [] {
+        PcgOptions o;
+        o.tolerance = 1e-5;
+        return o;
+    }();
     Boundary boundary = Boundary::Neumann;  ///< condition on ψ at the band's boundary (see above)
 };
 
