@@ -208,6 +208,7 @@ nlohmann::json secNineRow(const Problem& p, double tolerance) {
     t = Clock::now();
     PcgOptions o;
     o.tolerance = tolerance;
+    o.preconditioner = Preconditioner::Jacobi;  // the paper's CG; the multigrid has its own part
     const GreenResult g = greensFunction(band, L, p.source, o);
     const double cg = seconds(t);
     const auto bb = band.bbox();
@@ -238,6 +239,7 @@ nlohmann::json tolerances(const Problem& p) {
         o.tolerance = tolerance;
         o.maxIterations = 100000;
         o.refinement = refinement;
+        o.preconditioner = Preconditioner::Jacobi;
         std::vector<double> x;
         PcgResult r;
         const double s = median([&] {
