@@ -148,6 +148,14 @@ nlohmann::json solverReport(const PcgResult& r, const PcgOptions& options) {
             {"tolerance", options.tolerance}};
 }
 
+nlohmann::json memoryStageReport(const MemoryEstimate& estimate, double measuredPeak, bool stageOnly) {
+    nlohmann::json parts = nlohmann::json::object();
+    for (const auto& [name, bytes] : estimate.parts) parts[name] = bytes;
+    return {{"baseline_bytes", estimate.baselineBytes}, {"parts_bytes", parts}, {"estimate_bytes", estimate.peakBytes()},
+            {"measured_peak_bytes", measuredPeak}, {"stage_only", stageOnly},
+            {"estimate_error", measuredPeak > 0 ? estimate.peakBytes() / measuredPeak - 1 : 0.0}};
+}
+
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     openvdb::MetaMap meta;
     const auto& in = job.model.input;
