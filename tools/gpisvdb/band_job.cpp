@@ -156,6 +156,23 @@ nlohmann::json memoryStageReport(const MemoryEstimate& estimate, double measured
             {"estimate_error", measuredPeak > 0 ? estimate.peakBytes() / measuredPeak - 1 : 0.0}};
 }
 
+MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::vector<std::pair<std::string, double>> parts) {
+    MemoryEstimate e;
+    e.baselineBytes = settledResidentBytes();
+    e.parts = std::move(parts);
+    if (e.peakBytes() <= job.maxMemory) return e;
+    const double available = job.maxMemory - e.baselineBytes;
+    const std::string need = "the " + stage + " needs about " + numberText(e.stageBytes() / 1e6) + " MB beside the " +
+                             numberText(e.baselineBytes / 1e6) + " MB this process holds (libraries, input, band)";
+    if (available <= 0)
+        throw MemoryLimitError(need + ", more than the memory limit (DefaultBandOptions::maxMemory) allows: raise it",
+                               {"DefaultBandOptions::maxMemory"});
+    throw MemoryLimitError(need + ", more than the memory limit (DefaultBandOptions::maxMemory) allows: use a voxel size "
+                               "(BandOptions::voxelSize) of " +
+                               numberText(job.options.voxelSize * std::cbrt(e.stageBytes() / available) * 1.1) + " or larger",
+                           {"DefaultBandOptions::maxMemory", "BandOptions::voxelSize"});
+}
+
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     openvdb::MetaMap meta;
     const auto& in = job.model.input;

@@ -74,6 +74,11 @@ nlohmann::json solverReport(const PcgResult& result, const PcgOptions& options);
 /// band's) and estimate_error (estimate / measured − 1).
 nlohmann::json memoryStageReport(const MemoryEstimate& estimate, double measuredPeak, bool stageOnly);
 
+/// The estimate of a stage that allocates `parts` (bytes) on the band: the settled resident set now as its
+/// baseline. Throws MemoryLimitError, before the stage allocates, when baseline + parts exceed the job's memory
+/// limit, naming --max-memory and the voxel size that fits (the stage's bytes go as h⁻³ with the band's voxels).
+MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::vector<std::pair<std::string, double>> parts);
+
 /// File metadata: version, command line, every parameter relative and absolute, input, band size and mass.
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags);
 

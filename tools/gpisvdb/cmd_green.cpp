@@ -44,6 +44,16 @@ void addGreen(CLI::App& app, Action& action) {
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
             const BandJob& job = run.job;
             const Band& band = job.result.band;
+            // The operator's and the solve's memory (Jacobi: other preconditioners' own is not estimated yet):
+            // estimated and refused before they allocate, measured over them (docs/memory.md)
+            const bool estimated = a->solver.preconditioner == Preconditioner::Jacobi;
+            MemoryEstimate memory;
+            if (estimated)
+                memory = estimateStage(job, "Green's function solve",
+                                       {{"laplacian", laplacianOperatorBytes(band.size())},
+                                        {"pcg", pcgWorkBytes(band.size(), a->solver)},
+                                        {"rhs_and_solution", 8.0 * double(band.size())}});
+            const bool stageOnly = resetPeakResident();
             // === Operators (matrix-free L; assembled for the incomplete Cholesky factor), then L f = M δ_y
             const auto tOps = Clock::now();
             std::unique_ptr<SymmetricOperator> L;
@@ -58,6 +68,7 @@ void addGreen(CLI::App& app, Action& action) {
             const auto tSolve = Clock::now();
             const GreenResult g = greensFunction(band, *L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
+            const double solvePeak = peakResidentBytes();
             requireConverged(g.solver, a->solver);
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             const openvdb::Coord y = band.coord[g.sourceIndex];
@@ -73,6 +84,7 @@ void addGreen(CLI::App& app, Action& action) {
             if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["solver"] = solverReport(g.solver, a->solver);
+                if (estimated) report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
                 report["green"] = {{"source", a->source}, {"source_voxel", {y.x(), y.y(), y.z()}},
                                    {"source_index", g.sourceIndex}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps},

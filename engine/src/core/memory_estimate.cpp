@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "gpisvdb/solve/fast_marching.h"
+#include "gpisvdb/solve/pcg.h"
 
 namespace gpisvdb {
 
@@ -67,6 +68,15 @@ double fastMarchingFrontShare(std::size_t n) {
     // to 1e8 voxels, where the pool is under 1 B per voxel either way.
     const double voxels = double(std::max<std::size_t>(1, n));
     return std::min(1.0, std::max(1.5 / std::cbrt(voxels), 32.0 / std::sqrt(voxels)));
+}
+
+double laplacianOperatorBytes(std::size_t n) { return (12.0 * 4.0 + 8.0) * double(n); }
+
+double pcgWorkBytes(std::size_t n, const PcgOptions& options, bool includeFallback) {
+    const double floats = 5.0 * 4.0 * double(n);
+    const bool refines = options.refinement == Refinement::Always ||
+                         (options.refinement == Refinement::Automatic && (options.tolerance < kFloatPcgReach || includeFallback));
+    return floats + (refines ? 24.0 * double(n) : 0.0);
 }
 
 }  // namespace gpisvdb

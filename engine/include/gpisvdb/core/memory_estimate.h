@@ -13,6 +13,8 @@
 
 namespace gpisvdb {
 
+struct PcgOptions;
+
 /// Resident set of this process now (VmRSS), bytes; 0 where /proc/self/status cannot be read.
 double residentBytes();
 
@@ -45,5 +47,19 @@ double fastMarchingBytes(std::size_t n, std::size_t entries, double frontShare);
 /// The share of a band's voxels a march holds in its pool at once, bound from measurements (docs/memory.md): the
 /// front of a march is a surface of the accepted region, so the share falls with the band's size.
 double fastMarchingFrontShare(std::size_t n);
+
+/// Bytes the matrix-free Laplacian (ops/laplacian.h) allocates for n band voxels: its neighbour table (12 int32
+/// per voxel) and its per-voxel sums in double, 56 B per voxel; the scatter schedule (a few bytes per leaf) is
+/// below the measurement's resolution and not counted.
+double laplacianOperatorBytes(std::size_t n);
+
+/// Bytes a PcgSolver allocates for n unknowns with these options, Jacobi preconditioned (solve/pcg.h): r, z, p,
+/// A p and the inverse diagonal in float (20 B per unknown), plus the refinement's residual in double, its inner
+/// right-hand side and solution in float and the solution in double (24 B) when the tolerance is below what
+/// float reaches (kFloatPcgReach) or refinement is Always. With Refinement::Automatic above kFloatPcgReach a float
+/// solve that stalls refines too, and then allocates those 24 B after all: not counted, since it is the exception
+/// (`includeFallback` counts it). Other preconditioners' own memory (IC's factor, a multigrid hierarchy) is not
+/// counted here.
+double pcgWorkBytes(std::size_t n, const PcgOptions& options, bool includeFallback = false);
 
 }  // namespace gpisvdb
