@@ -3,6 +3,8 @@
 // varies smoothly, and bunny bands; the stencil tables' build time and bytes per voxel; path backtracking time.
 // Usage: bench_geodesic [--part boxes|bunny|all] [--out bench/results/geodesic.json] [--data DIR] [--repeat R]
 //        [--sizes 100,150,200]
+#include <malloc.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <fstream>
@@ -11,6 +13,7 @@
 #include <sstream>
 
 #include "gpisvdb/band/build_band.h"
+#include "gpisvdb/core/memory_estimate.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/stencil/resolution.h"
@@ -56,17 +59,52 @@ Band box(int n, double a, bool varying) {
 nlohmann::json measure(const std::string& name, const Band& band, const Vec3d& source) {
     const std::size_t n = band.size();
     const std::size_t s = nearestBandVoxel(band, source);
+    // === Memory first, before the timing repeats: the resident set's growth over the tables and one march
+    // (the peak restarted at the start where the kernel allows), against what the pre-issue-18 march holds
+    double measuredExtra = 0, peakTouched = 0;
+    {
+        const double before = settledResidentBytes();
+        const bool reset = resetPeakResident();
+        FastMarchingResult once;
+        {
+            const FastMarching tables(band);
+            once = tables.run({s});
+        }
+        if (reset) measuredExtra = (peakResidentBytes() - before) / double(n);
+        peakTouched = double(once.peakTouched);
+    }
     std::unique_ptr<FastMarching> fm;
     const double tTables = median([&] { fm = std::make_unique<FastMarching>(band); });
-    FastMarchingResult r;
-    const double tMarch = median([&] { r = fm->run({s}); });
+    FastMarchingResult r, reference;
+    // The compact march and the reference alternate, so both see the same load on the machine
+    double tMarch = 0, tReference = 0;
+    {
+        std::vector<double> a, b;
+        for (int k = 0; k < gRepeat; ++k) {
+            a.push_back(bench::medianSeconds(1, [&] { r = fm->run({s}); }));
+            b.push_back(bench::medianSeconds(1, [&] { reference = fm->runReference({s}); }));
+        }
+        std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
+        tMarch = a[a.size() / 2], tReference = b[b.size() / 2];
+    }
+    const bool identical = r.distance == reference.distance;
     int width = 0;
     for (const VoxelStencil& st : band.stencil) width = std::max<int>(width, st.width);
+    const double tableBytes = fm->bytesPerVoxel();
     nlohmann::json row = {{"case", name}, {"voxels", n}, {"accepted", r.accepted}, {"unreached", r.unreached},
                           {"max_stencil_width", width}, {"tables_s", tTables}, {"march_s", tMarch},
+                          {"reference_march_s", tReference}, {"identical_to_reference", identical},
                           {"accepted_per_s_march", double(r.accepted) / tMarch},
                           {"accepted_per_s_with_tables", double(r.accepted) / (tMarch + tTables)},
-                          {"table_bytes_per_voxel", fm->bytesPerVoxel()}};
+                          {"table_bytes_per_voxel", tableBytes},
+                          {"peak_touched_share", peakTouched / double(n)},
+                          // counted: tables + U, slot map, target flags + the pool and heap at their peak
+                          {"march_extra_bytes_per_voxel", tableBytes + FastMarching::kMarchBytesPerVoxel +
+                                                              FastMarching::kTouchedBytes * peakTouched / double(n)},
+                          // the reference: tables + the 51 B forward table while building them, or U 8 + record 72
+                          // + heap position 4 + target flag 1 while marching (the heap is front-sized)
+                          {"reference_extra_bytes_per_voxel", tableBytes + std::max(48.0 + 4.0, 85.0)},
+                          {"measured_extra_bytes_per_voxel", measuredExtra}};
     // === One path from the farthest reached voxel
     std::size_t far = s;
     for (std::size_t i = 0; i < n; ++i)
@@ -89,6 +127,9 @@ Band bunnyBand(const std::string& data, double sigma) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    // Blocks of 1 MiB and more mapped from the kernel and returned on release, so that the resident set measured
+    // over a march grows by what it allocates (not less, where glibc would reuse what the band's build freed)
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);
     std::string part = "all", out = "bench/results/geodesic.json", data = "data";
     std::vector<int> sizes = {100, 150, 200};
     for (int i = 1; i < argc; ++i) {

@@ -246,6 +246,8 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
         {"geodesic " + bunny + " --source 0,6,0 -o " + vdb + " --stop-at-targets", "--stop-at-targets"},
         {"geodesic " + bunny + " --source 0,6,0 --target 1,6,0 -o " + vdb + " --paths " + temp("p.stl"), "path extension"},
         {"geodesic " + bunny + " --source 0,6,0,1 -o " + vdb, "X,Y,Z"},
+        {"geodesic " + bunny + " --source 0,6,0 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M",
+         "the memory limit (--max-memory) allows: raise it"},
         {"spectrum " + bunny + " -k 0 -o " + vdb, "-k"},
         {"spectrum " + bunny + " -k 100000 -o " + vdb + " --voxel-size 0.4 --sigma 2", "between 1 and"},
         {"spectrum " + bunny + " -k 200 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M",

@@ -175,3 +175,44 @@ TEST_CASE("fast marching: isotropic U matches OpenVDB's fast sweeping on a non-c
     CHECK(fm.distance[far] > 1.65);
     CHECK(acc.getValue(band.coord[far]) > 1.65);
 }
+
+TEST_CASE("fast marching: the compact march gives U bit for bit equal to the reference march, in under 100 B per voxel", "[fast_marching]") {
+    // Issue 18 item 6: run() keeps only a pool of touched, unaccepted voxels where runReference() (the march
+    // before it) kept a 72 B record per band voxel. The two must agree exactly: same local solves, same front order.
+    const Mat3d R = Eigen::AngleAxisd(0.6, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
+    struct Case {
+        const char* name;
+        Band band;
+    };
+    std::vector<Case> cases;
+    cases.push_back({"rotated anisotropy 10 box", constantBox(12, R * Vec3d(1.0, 0.01, 0.2).asDiagonal() * R.transpose())});
+    cases.push_back({"diagonal box (zero-weight terms)", constantBox(8, Vec3d(1.0, 0.01, 0.2).asDiagonal().toDenseMatrix())});
+    cases.push_back({"anisotropic ball", test::anisotropicBall(10, 0.1, 30)});
+    for (const Case& c : cases) {
+        INFO(c.name);
+        const FastMarching fm(c.band);
+        const std::vector<std::size_t> sources = {0, c.band.size() / 2, c.band.size() / 2};  // a repeated source too
+        const FastMarchingResult compact = fm.run(sources), reference = fm.runReference(sources);
+        CHECK(compact.distance == reference.distance);
+        CHECK(compact.accepted == reference.accepted);
+        CHECK(compact.unreached == reference.unreached);
+        // Tables + U + slot map + target flags + the pool at its peak: under 100 B per voxel even on these small
+        // bands, whose front is a large share of the band.
+        const double n = double(c.band.size());
+        const double bytes = fm.bytesPerVoxel() + FastMarching::kMarchBytesPerVoxel +
+                             FastMarching::kTouchedBytes * double(compact.peakTouched) / n;
+        INFO("bytes per voxel " << bytes << ", peak touched " << compact.peakTouched << " of " << n);
+        CHECK(bytes < 100);
+    }
+    const Band& band = test::torusGapBand();
+    const std::size_t a = nearestBandVoxel(band, Vec3d(1.0, 0.0, -0.2)), b = nearestBandVoxel(band, Vec3d(-1.0, 0.0, -0.2)),
+                      t = nearestBandVoxel(band, Vec3d(0.0, 1.0, -0.2));
+    const FastMarching fm(band);
+    const FastMarchingResult compact = fm.run({a, b}, {t}), reference = fm.runReference({a, b}, {t});
+    CHECK(compact.stoppedEarly == reference.stoppedEarly);
+    CHECK(compact.stoppedEarly);
+    CHECK(compact.distance == reference.distance);
+    CHECK(compact.unreached == reference.unreached);
+    const FastMarchingResult full = fm.run({a}), fullReference = fm.runReference({a});
+    CHECK(full.distance == fullReference.distance);
+}

@@ -147,6 +147,6 @@ TEST_CASE("geodesic: absurd point counts and a march beyond the memory budget ar
         CHECK_THAT(e.what(), Catch::Contains("(GeodesicOptions::maxBytes)") && Catch::Contains("(BandOptions::voxelSize) of"));
         CHECK(e.parameters() == std::vector<std::string>{"GeodesicOptions::maxBytes", "BandOptions::voxelSize"});
     }
-    tight.maxBytes = double(band.size()) * kFastMarchingBytesPerVoxel * 1.01;
+    tight.maxBytes = geodesicMarchBytes(band) * 1.01;
     CHECK(geodesicDistance(band, {s}, {}, tight).march.accepted == band.size());
 }

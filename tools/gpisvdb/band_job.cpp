@@ -154,6 +154,31 @@ nlohmann::json solverReport(const PcgResult& r, const PcgOptions& options) {
     return report;
 }
 
+nlohmann::json memoryStageReport(const MemoryEstimate& estimate, double measuredPeak, bool stageOnly) {
+    nlohmann::json parts = nlohmann::json::object();
+    for (const auto& [name, bytes] : estimate.parts) parts[name] = bytes;
+    return {{"baseline_bytes", estimate.baselineBytes}, {"parts_bytes", parts}, {"estimate_bytes", estimate.peakBytes()},
+            {"measured_peak_bytes", measuredPeak}, {"stage_only", stageOnly},
+            {"estimate_error", measuredPeak > 0 ? estimate.peakBytes() / measuredPeak - 1 : 0.0}};
+}
+
+MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::vector<std::pair<std::string, double>> parts) {
+    MemoryEstimate e;
+    e.baselineBytes = settledResidentBytes();
+    e.parts = std::move(parts);
+    if (e.peakBytes() <= job.maxMemory) return e;
+    const double available = job.maxMemory - e.baselineBytes;
+    const std::string need = "the " + stage + " needs about " + numberText(e.stageBytes() / 1e6) + " MB beside the " +
+                             numberText(e.baselineBytes / 1e6) + " MB this process holds (libraries, input, band)";
+    if (available <= 0)
+        throw MemoryLimitError(need + ", more than the memory limit (DefaultBandOptions::maxMemory) allows: raise it",
+                               {"DefaultBandOptions::maxMemory"});
+    throw MemoryLimitError(need + ", more than the memory limit (DefaultBandOptions::maxMemory) allows: use a voxel size "
+                               "(BandOptions::voxelSize) of " +
+                               numberText(job.options.voxelSize * std::cbrt(e.stageBytes() / available) * 1.1) + " or larger",
+                           {"DefaultBandOptions::maxMemory", "BandOptions::voxelSize"});
+}
+
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     openvdb::MetaMap meta;
     const auto& in = job.model.input;

@@ -8,6 +8,7 @@
 
 #include "common.h"
 #include "gpisvdb/band/default_band.h"
+#include "gpisvdb/core/memory_estimate.h"
 #include "gpisvdb/output/write_vdb.h"
 #include "gpisvdb/solve/pcg.h"
 #include "gpisvdb/stencil/resolution.h"
@@ -67,6 +68,16 @@ void requireConverged(const PcgResult& result, const PcgOptions& options);
 /// The report's `solver` section: method, iterations, restarts, refinements, inner_iterations, relative_residual
 /// (of the double solution when refined), float_residual (of the float grid written) and tolerance.
 nlohmann::json solverReport(const PcgResult& result, const PcgOptions& options);
+
+/// A report's `memory.stages.<stage>`: baseline_bytes, the parts' bytes, estimate_bytes (their sum with the baseline),
+/// measured_peak_bytes, stage_only (false: the kernel kept the peak from before the stage, so it may be the
+/// band's) and estimate_error (estimate / measured − 1).
+nlohmann::json memoryStageReport(const MemoryEstimate& estimate, double measuredPeak, bool stageOnly);
+
+/// The estimate of a stage that allocates `parts` (bytes) on the band: the settled resident set now as its
+/// baseline. Throws MemoryLimitError, before the stage allocates, when baseline + parts exceed the job's memory
+/// limit, naming --max-memory and the voxel size that fits (the stage's bytes go as h⁻³ with the band's voxels).
+MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::vector<std::pair<std::string, double>> parts);
 
 /// File metadata: version, command line, every parameter relative and absolute, input, band size and mass.
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags);

@@ -76,8 +76,20 @@ void addGeodesic(CLI::App& app, Action& action) {
             const auto tSolve = Clock::now();
             GeodesicOptions options;
             options.stopAtTargets = a->stopAtTargets;
-            options.maxBytes = std::max(1.0, job.maxMemory - double(band.size()) * band.bytesPerVoxel());
+            // The march's memory: estimated before it allocates (the resident set now, band included, plus what
+            // it allocates), refused beyond --max-memory, and measured over the march (docs/memory.md)
+            MemoryEstimate memory;
+            memory.baselineBytes = settledResidentBytes();
+            memory.parts = {{"fast_marching", geodesicMarchBytes(band)}};
+            if (memory.baselineBytes >= job.maxMemory)
+                throw MemoryLimitError("before the march this process already holds " + numberText(memory.baselineBytes / 1e6) +
+                                           " MB (libraries, input, band), more than the " + numberText(job.maxMemory / 1e6) +
+                                           " MB the memory limit (GeodesicOptions::maxBytes) allows: raise it",
+                                       {"GeodesicOptions::maxBytes"});
+            options.maxBytes = job.maxMemory - memory.baselineBytes;
+            const bool stageOnly = resetPeakResident();
             const GeodesicResult g = geodesicDistance(band, sources, targets, options, run.progress);
+            const double marchPeak = peakResidentBytes();
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             if (g.march.accepted == g.sourceIndex.size() && band.size() > g.sourceIndex.size() && !a->stopAtTargets)
                 throw Error("the march did not leave the sources: their stencils reach no band voxel (a band too thin "
@@ -118,6 +130,7 @@ void addGeodesic(CLI::App& app, Action& action) {
                                       {"reached", g.march.accepted}, {"unreached", g.march.unreached},
                                       {"stopped_at_targets", g.march.stoppedEarly}, {"max_distance", farthest},
                                       {"sources", src}, {"paths", paths}};
+                report["memory"]["stages"] = {{"geodesic", memoryStageReport(memory, marchPeak, stageOnly)}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve},
                                        {"total", total}};
                 report["outputs"] = {a->output};

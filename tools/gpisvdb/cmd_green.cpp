@@ -47,14 +47,32 @@ void addGreen(CLI::App& app, Action& action) {
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
             const BandJob& job = run.job;
             const Band& band = job.result.band;
-            // === The matrix-free L (the incomplete Cholesky and multigrid set-ups assemble it and keep only their
-            //     own data), then L f = M δ_y
+            // The operator's and the solve's memory (Jacobi and multigrid; IC's factor is not estimated): estimated
+            // and refused before they allocate, measured over them (docs/memory.md). The matrix-free L is what
+            // the PCG applies; the multigrid's set-up assembles L for hypre and keeps only its hierarchy.
+            const Preconditioner preconditioner = a->solver.preconditioner == Preconditioner::Automatic
+                                                      ? (band.size() >= kMultigridMinUnknowns ? Preconditioner::Multigrid
+                                                                                             : Preconditioner::Jacobi)
+                                                      : a->solver.preconditioner;
+            const bool estimated = preconditioner != Preconditioner::IncompleteCholesky;
+            MemoryEstimate memory;
+            if (estimated) {
+                std::vector<std::pair<std::string, double>> parts = {
+                    {"laplacian", laplacianOperatorBytes(band.size())},
+                    {"pcg", pcgWorkBytes(band.size(), a->solver)},
+                    {"rhs_and_solution", 8.0 * double(band.size())}};
+                if (preconditioner == Preconditioner::Multigrid)
+                    parts.emplace_back("multigrid", multigridBytes(band.size()));
+                memory = estimateStage(job, "Green's function solve", std::move(parts));
+            }
+            const bool stageOnly = resetPeakResident();
             const auto tOps = Clock::now();
             const LaplacianOperator L(band);
             const double secondsOps = std::chrono::duration<double>(Clock::now() - tOps).count();
             const auto tSolve = Clock::now();
             const GreenResult g = greensFunction(band, L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
+            const double solvePeak = peakResidentBytes();
             requireConverged(g.solver, a->solver);
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             const openvdb::Coord y = band.coord[g.sourceIndex];
@@ -71,6 +89,7 @@ void addGreen(CLI::App& app, Action& action) {
             if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["solver"] = solverReport(g.solver, a->solver);
+                if (estimated) report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
                 report["green"] = {{"source", a->source}, {"source_voxel", {y.x(), y.y(), y.z()}},
                                    {"source_index", g.sourceIndex}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps},

@@ -70,7 +70,8 @@ void addRegress(CLI::App& app, Action& action) {
             const Band& band = job.result.band;
             // === Eigenpairs, then the posterior
             const auto tSolve = Clock::now();
-            const EigenResult e = runSpectrum(job, a->eigen, run.progress);
+            nlohmann::json memoryStage;
+            const EigenResult e = runSpectrum(job, a->eigen, run.progress, &memoryStage);
             const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
             const auto tRegress = Clock::now();
             run.progress.update("regression", 0);
@@ -92,6 +93,7 @@ void addRegress(CLI::App& app, Action& action) {
             if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["spectrum"] = spectrumReport(e);
+                report["memory"]["stages"] = {{"spectrum", memoryStage}};
                 const std::vector<double> meanAt(r.meanAtData.data(), r.meanAtData.data() + r.meanAtData.size());
                 const std::vector<double> varAt(r.varianceAtData.data(), r.varianceAtData.data() + r.varianceAtData.size());
                 report["regression"] = {{"data", a->data},

@@ -36,7 +36,8 @@ void addSpectrum(CLI::App& app, Action& action) {
             const Band& band = job.result.band;
             // === Eigenpairs, then one float grid per eigenvector
             const auto tSolve = Clock::now();
-            const EigenResult e = runSpectrum(job, a->eigen, run.progress);
+            nlohmann::json memoryStage;
+            const EigenResult e = runSpectrum(job, a->eigen, run.progress, &memoryStage);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
             std::vector<std::vector<float>> vectors(std::size_t(e.values.size()));
             std::vector<NamedChannel> grids;
@@ -54,6 +55,7 @@ void addSpectrum(CLI::App& app, Action& action) {
             if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["spectrum"] = spectrumReport(e);
+                report["memory"]["stages"] = {{"spectrum", memoryStage}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve},
                                        {"total", total}};
                 report["outputs"] = {a->output};

@@ -21,10 +21,20 @@ std::string eigenGridName(int i) {
     return buf;
 }
 
-EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress) {
+EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress, nlohmann::json* memory) {
     EigenOptions o = options;
     o.maxBytes = std::max(1.0, job.maxMemory - double(job.result.band.size()) * job.result.band.bytesPerVoxel());
-    return spectrum(job.result.band, o, progress);
+    MemoryEstimate estimate;
+    estimate.baselineBytes = settledResidentBytes();
+    const bool stageOnly = resetPeakResident();
+    EigenResult e = spectrum(job.result.band, o, progress);
+    const double peak = peakResidentBytes();
+    const double n = double(job.result.band.size());
+    // CSR in double: 8 B value + 4 B column index per entry, 4 B per row start; the mass: 8 B per voxel
+    estimate.parts = {{"laplacian_double", 12.0 * e.matrixNonzeros + 4.0 * (n + 1)}, {"mass", 8.0 * n},
+                      {"eigen_solver", e.estimatedBytes}};
+    if (memory) *memory = memoryStageReport(estimate, peak, stageOnly);
+    return e;
 }
 
 nlohmann::json spectrumReport(const EigenResult& e) {

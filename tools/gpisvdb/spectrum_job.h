@@ -16,7 +16,11 @@ std::string eigenGridName(int i);
 
 /// The k lowest eigenpairs of the job's band, refused before the numeric factorisation when the factor, the Lanczos
 /// basis and the vectors would not fit in --max-memory beside the band.
-EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress);
+/// With `memory`: the stage's estimate (the settled resident set at its start; the assembled L in double, the mass,
+/// and the eigen solver's factor, basis and vectors as estimated before the factorisation) and the peak measured
+/// over it, as memoryStageReport writes them.
+EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress,
+                        nlohmann::json* memory = nullptr);
 
 /// The report's "spectrum" section: method, eigenvalues, residuals, orthonormality, solver counts and memory.
 nlohmann::json spectrumReport(const EigenResult& eigen);

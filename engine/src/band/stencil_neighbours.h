@@ -14,4 +14,7 @@ constexpr int kStencilSlots = 12;  // 6 terms × 2 signs
 /// voxel's term count.
 std::vector<std::int32_t> stencilNeighbours(const Band& band);
 
+/// The same for voxels [first, last) only, into out (resized to 12 (last − first); slot 12 (i − first) + 2 k + s).
+void stencilNeighbours(const Band& band, std::size_t first, std::size_t last, std::vector<std::int32_t>& out);
+
 }  // namespace gpisvdb::detail

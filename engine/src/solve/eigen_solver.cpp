@@ -100,6 +100,8 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     progress.checkInterrupt();
     factor.analyzePattern(L);
     const double needed = eigenBytes(factor.cholmod().lnz, double(n), double(ncv), double(k));
+    result.estimatedBytes = needed;
+    result.matrixNonzeros = double(L.nonZeros());
     if (options.maxBytes > 0 && needed > options.maxBytes)
         throw MemoryLimitError(std::to_string(k) + " eigenpairs of a band of " + std::to_string(n) + " voxels need about " +
                              numberText(needed / 1e9) + " GB (Cholesky factor of " + numberText(factor.cholmod().lnz) +

@@ -1,9 +1,16 @@
 #include "gpisvdb/tasks/geodesic.h"
 
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/core/memory_estimate.h"
 #include "gpisvdb/tasks/green.h"
 
 namespace gpisvdb {
+
+double geodesicMarchBytes(const Band& band) {
+    std::size_t terms = 0;
+    for (const VoxelStencil& st : band.stencil) terms += st.count;
+    return fastMarchingBytes(band.size(), 2 * terms, fastMarchingFrontShare(band.size()));
+}
 
 GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sources, const std::vector<Vec3d>& targets,
                                 const GeodesicOptions& options, const Progress& progress) {
@@ -12,7 +19,7 @@ GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sour
         throw ParameterError("the geodesic distance takes at most " + numberText(double(kMaxGeodesicPoints)) +
                              " source points and as many targets, got " + std::to_string(sources.size()) + " sources and " +
                              std::to_string(targets.size()) + " targets");
-    const double bytes = double(band.size()) * kFastMarchingBytesPerVoxel;
+    const double bytes = geodesicMarchBytes(band);
     if (options.maxBytes > 0 && bytes > options.maxBytes)
         throw MemoryLimitError("fast marching over " + std::to_string(band.size()) + " voxels needs about " + numberText(bytes / 1e9) +
                              " GB beyond the band, more than the " + numberText(options.maxBytes / 1e9) +

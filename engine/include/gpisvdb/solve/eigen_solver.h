@@ -33,6 +33,8 @@ struct EigenResult {
     std::size_t factorBytes = 0;    ///< CHOLMOD's peak memory during the factorisation
     double factorNonzeros = 0;      ///< entries of the Cholesky factor (the fill: 8 bytes each)
     std::string ordering;           ///< the fill-reducing ordering CHOLMOD chose (AMD, METIS, NESDIS, ...)
+    double estimatedBytes = 0;      ///< eigenBytes as estimated before the numeric factorisation (what maxBytes bounds)
+    double matrixNonzeros = 0;      ///< stored entries of L (the caller's matrix; 12 bytes each in double)
 };
 
 /// Bytes the solve needs beyond L and M, estimated before the numeric factorisation: 12 per entry of the

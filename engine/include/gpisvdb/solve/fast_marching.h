@@ -26,11 +26,14 @@ struct FastMarchingResult {
     std::size_t accepted = 0;      ///< voxels accepted (their U is final)
     std::size_t unreached = 0;     ///< voxels left at +∞ (never reached, or not reached before an early stop)
     bool stoppedEarly = false;     ///< the march ended at the targets, before the band was exhausted
+    std::size_t peakTouched = 0;   ///< most voxels touched but not yet accepted at once (the march's pool; ≈ the front)
 };
 
-/// The band's reverse-stencil table (for each voxel y, the voxels x and terms k with x ± h e_k = y; about
-/// 51 B per voxel), built once for several marches on one band. The band must outlive it. A march holds 85 B
-/// per voxel more while it runs (U, each term's least accepted neighbour and weight, the front).
+/// The band's reverse-stencil table (for each voxel y, the voxels x and terms k with x ± h e_k = y; 4 B per entry,
+/// ≤ 12 entries, plus a 4 B start: measured 47–52 B per voxel), built once for several marches on one band. The
+/// band must outlive it. A march holds kMarchBytesPerVoxel = 13 B per voxel more while it runs (U 8, a slot or
+/// "accepted" mark 4, the target flag 1), plus kTouchedBytes per voxel touched but not yet accepted (the front;
+/// FastMarchingResult::peakTouched): about 65 B per voxel in all where the pre-issue-18 march held 136.
 class FastMarching {
 public:
     explicit FastMarching(const Band& band);
@@ -40,8 +43,18 @@ public:
     FastMarchingResult run(const std::vector<std::size_t>& sources, const std::vector<std::size_t>& targets = {},
                            const FastMarchingOptions& options = {}, const Progress& progress = {}) const;
 
+    /// The same march as run(), by the pre-issue-18 algorithm (a 72 B record for every band voxel, 85 B per voxel
+    /// beside the tables): kept as the reference the tests and bench_geodesic compare run() with, bit for bit.
+    FastMarchingResult runReference(const std::vector<std::size_t>& sources, const std::vector<std::size_t>& targets = {},
+                                    const FastMarchingOptions& options = {}, const Progress& progress = {}) const;
+
     /// Bytes held by the tables, per band voxel.
     double bytesPerVoxel() const;
+
+    /// Per-voxel bytes of a march beside the tables: U (8), the slot map (4), the target flags (1).
+    static constexpr double kMarchBytesPerVoxel = 13;
+    /// Bytes per touched, unaccepted voxel: its pool record (88), its heap entry (16), a free-slot entry (4).
+    static constexpr double kTouchedBytes = 108;
 
 private:
     const Band& band_;
