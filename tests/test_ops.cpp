@@ -36,7 +36,57 @@ std::vector<std::pair<const char*, const Band*>> bands() {
     return {{"sphere", &test::sphereBand()}, {"torus with a gap", &test::torusGapBand()}, {"anisotropic ball", &wide}};
 }
 
+/// L by the triplet list the assembly used before (every voxel's 4 entries per stencil direction, summed by Eigen's
+/// setFromTriplets in list order): the reference the direct assembly must equal to the last bit.
+template <class Matrix>
+Matrix tripletLaplacian(const Band& band) {
+    using Scalar = typename Matrix::Scalar;
+    std::vector<Eigen::Triplet<Scalar, int>> t;
+    auto acc = band.index->getConstAccessor();
+    for (std::size_t i = 0; i < band.size(); ++i) {
+        const VoxelStencil& st = band.stencil[i];
+        for (int k = 0; k < st.count; ++k) {
+            const Scalar w = Scalar(0.5 * band.voxelSize * double(st.weight[k]));
+            const openvdb::Coord d(st.offset[k][0], st.offset[k][1], st.offset[k][2]);
+            for (const openvdb::Coord& y : {band.coord[i] + d, band.coord[i] - d}) {
+                const int j = acc.getValue(y);
+                t.emplace_back(int(i), int(i), w);
+                if (j < 0) continue;
+                t.emplace_back(j, j, w);
+                t.emplace_back(int(i), j, -w);
+                t.emplace_back(j, int(i), -w);
+            }
+        }
+    }
+    Matrix L(int(band.size()), int(band.size()));
+    L.setFromTriplets(t.begin(), t.end());
+    L.makeCompressed();
+    return L;
+}
+
+template <class Matrix>
+bool identical(const Matrix& a, const Matrix& b) {
+    return a.rows() == b.rows() && a.nonZeros() == b.nonZeros() &&
+           std::equal(a.outerIndexPtr(), a.outerIndexPtr() + a.outerSize() + 1, b.outerIndexPtr()) &&
+           std::equal(a.innerIndexPtr(), a.innerIndexPtr() + a.nonZeros(), b.innerIndexPtr()) &&
+           std::equal(a.valuePtr(), a.valuePtr() + a.nonZeros(), b.valuePtr());
+}
+
 }  // namespace
+
+TEST_CASE("ops: the assembled L equals the triplet-list assembly to the last bit, float and double, for 1 and 2 threads", "[ops]") {
+    for (const Band* band : {&test::sphereBand(), &test::torusGapBand()}) {
+        const Band ball = test::anisotropicBall(6, 0.1, 8.0);
+        for (const Band* b : {band, &ball}) {
+            for (int threads : {1, 2}) {
+                tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+                INFO(b->size() << " voxels, " << threads << " threads");
+                CHECK(identical(assembleLaplacian(*b), tripletLaplacian<SparseMatrixF>(*b)));
+                CHECK(identical(assembleLaplacianDouble(*b), tripletLaplacian<SparseMatrixD>(*b)));
+            }
+        }
+    }
+}
 
 TEST_CASE("ops: u^T L u equals the energy of Eq. 24 computed from the stencils", "[ops]") {
     for (auto [name, band] : bands()) {

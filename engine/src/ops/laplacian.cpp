@@ -1,64 +1,99 @@
 #include "gpisvdb/ops/laplacian.h"
 
+#include <algorithm>
+#include <cstdint>
+#include <limits>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "../band/stencil_neighbours.h"
+#include "gpisvdb/core/errors.h"
 #include "scatter_schedule.h"
 
 namespace gpisvdb {
 
 namespace {
-// Each voxel emits at most 6 terms × 2 directions × 4 entries.
-constexpr int kMaxTripletsPerVoxel = 48;
 
-openvdb::Coord offsetOf(const VoxelStencil& st, int k) {
-    const auto& e = st.offset[std::size_t(k)];
-    return openvdb::Coord(e[0], e[1], e[2]);
-}
-
+/// L in compressed rows (RowMajor float) or, L being symmetric entry for entry, the same arrays read as compressed
+/// columns (ColMajor double). Each entry sums its contributions in the order the voxels emit them (voxel, then
+/// term, then sign) — the order of the triplet list this replaced (Eigen's setFromTriplets), so the entries are the
+/// same to the last bit — without the list: its 48 slots per voxel and Eigen's copies of it peaked near 1 000 bytes
+/// per voxel; this holds the contributions once, 8–12 bytes each, beside the result (docs/memory.md).
 template <class Matrix>
 Matrix assembleLaplacianAs(const Band& band) {
     using Scalar = typename Matrix::Scalar;
-    using Triplet = Eigen::Triplet<Scalar, int>;
+    using Entry = std::pair<std::int32_t, Scalar>;
     const std::size_t n = band.size();
     const double h = band.voxelSize;
-    std::vector<Triplet> slots(n * kMaxTripletsPerVoxel);
-    std::vector<int> used(n, 0);
-    // === Edges of every voxel's stencil, into fixed slots (the order, and so the sums, never depend on threads)
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 256), [&](const tbb::blocked_range<std::size_t>& r) {
-        auto acc = band.index->getConstAccessor();
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            Triplet* out = &slots[i * kMaxTripletsPerVoxel];
-            int m = 0;
-            const VoxelStencil& st = band.stencil[i];
-            for (int k = 0; k < st.count; ++k) {
-                const Scalar w = Scalar(0.5 * h * double(st.weight[std::size_t(k)]));
-                const openvdb::Coord e = offsetOf(st, k);
-                for (const openvdb::Coord& y : {band.coord[i] + e, band.coord[i] - e}) {
-                    const int j = acc.getValue(y);
-                    out[m++] = {int(i), int(i), w};
-                    if (j < 0) continue;  // outside the band: u = 0 there
-                    out[m++] = {j, j, w};
-                    out[m++] = {int(i), j, -w};
-                    out[m++] = {j, int(i), -w};
-                }
+    // === Each voxel's stencil neighbours (linear indices, −1 outside the band), in parallel
+    std::vector<std::int32_t> nb = detail::stencilNeighbours(band);
+    auto neighbour = [&](std::size_t i, int slot) { return nb[detail::kStencilSlots * i + std::size_t(slot)]; };
+
+    // === Off-diagonal contributions per row, duplicates included: an edge i–j adds one to row i and one to row j
+    std::vector<std::size_t> start(n + 1, 0);
+    for (std::size_t i = 0; i < n; ++i)
+        for (int slot = 0; slot < 2 * band.stencil[i].count; ++slot)
+            if (const std::int32_t j = neighbour(i, slot); j >= 0) {
+                ++start[i + 1];
+                ++start[std::size_t(j) + 1];
             }
-            used[i] = m;
+    for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+
+    // === The contributions in emission order (serial: that order makes every sum independent of threads)
+    std::vector<Entry> contribution(start[n]);
+    std::vector<Scalar> diagonal(n, Scalar(0));
+    {
+        std::vector<std::size_t> cursor(start.begin(), start.end() - 1);
+        for (std::size_t i = 0; i < n; ++i) {
+            for (int slot = 0; slot < 2 * band.stencil[i].count; ++slot) {
+                const Scalar w = Scalar(0.5 * h * double(band.stencil[i].weight[std::size_t(slot / 2)]));
+                diagonal[i] += w;  // an edge leaving the band adds to the diagonal only (u = 0 outside)
+                const std::int32_t j = neighbour(i, slot);
+                if (j < 0) continue;
+                diagonal[std::size_t(j)] += w;
+                contribution[cursor[i]++] = {j, -w};
+                contribution[cursor[std::size_t(j)]++] = {std::int32_t(i), -w};
+            }
+        }
+    }
+    std::vector<std::int32_t>().swap(nb);
+
+    // === Each row: its diagonal and contributions, stably sorted by column, equal columns summed in that order
+    auto mergeRow = [&](std::size_t i, std::vector<Entry>& row) {
+        row.assign(contribution.begin() + long(start[i]), contribution.begin() + long(start[i + 1]));
+        row.emplace_back(std::int32_t(i), diagonal[i]);
+        std::stable_sort(row.begin(), row.end(), [](const Entry& a, const Entry& b) { return a.first < b.first; });
+        std::size_t m = 0;
+        for (const Entry& e : row) {
+            if (m > 0 && row[m - 1].first == e.first) row[m - 1].second += e.second;
+            else row[m++] = e;
+        }
+        row.resize(m);
+    };
+    std::vector<std::int64_t> outer(n + 1, 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+        std::vector<Entry> row;
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            mergeRow(i, row);
+            outer[i + 1] = std::int64_t(row.size());
         }
     });
-    std::vector<Triplet> triplets;
-    std::size_t total = 0;
-    for (int u : used) total += std::size_t(u);
-    triplets.reserve(total);
-    for (std::size_t i = 0; i < n; ++i)
-        triplets.insert(triplets.end(), slots.begin() + long(i * kMaxTripletsPerVoxel),
-                        slots.begin() + long(i * kMaxTripletsPerVoxel) + used[i]);
-    slots.clear();
-    slots.shrink_to_fit();
+    for (std::size_t i = 0; i < n; ++i) outer[i + 1] += outer[i];
+    if (outer[n] > std::numeric_limits<int>::max())
+        throw Error("the Laplacian has more than 2^31 entries: use a coarser voxel size");
     Matrix L(static_cast<int>(n), static_cast<int>(n));
-    L.setFromTriplets(triplets.begin(), triplets.end());
-    L.makeCompressed();
+    L.resizeNonZeros(static_cast<Eigen::Index>(outer[n]));
+    for (std::size_t i = 0; i <= n; ++i) L.outerIndexPtr()[i] = int(outer[i]);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+        std::vector<Entry> row;
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            mergeRow(i, row);
+            for (std::size_t e = 0; e < row.size(); ++e) {
+                L.innerIndexPtr()[outer[i] + std::int64_t(e)] = row[e].first;
+                L.valuePtr()[outer[i] + std::int64_t(e)] = row[e].second;
+            }
+        }
+    });
     return L;
 }
 }  // namespace

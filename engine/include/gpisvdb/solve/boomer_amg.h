@@ -33,6 +33,8 @@ public:
     /// Builds the hierarchy of A (square, symmetric, positive diagonal). Throws ParameterError on bad options or an
     /// empty matrix, Error when hypre fails.
     explicit BoomerAmg(const SparseMatrixF& A, const BoomerAmgOptions& options = {});
+    /// The same, freeing A as soon as hypre holds its copy, before the hierarchy is built (less peak memory).
+    explicit BoomerAmg(SparseMatrixF&& A, const BoomerAmgOptions& options = {});
     ~BoomerAmg();
     BoomerAmg(const BoomerAmg&) = delete;
     BoomerAmg& operator=(const BoomerAmg&) = delete;
@@ -46,6 +48,7 @@ public:
     std::size_t memoryBytes() const;
 
 private:
+    void setUp(const SparseMatrixF& A, SparseMatrixF* release, const BoomerAmgOptions& options);
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
