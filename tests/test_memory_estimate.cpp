@@ -13,6 +13,7 @@
 #include "gpisvdb/solve/pcg.h"
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/green.h"
+#include "gpisvdb/tasks/hodge.h"
 #include "helpers.h"
 
 using namespace gpisvdb;
@@ -105,7 +106,30 @@ TEST_CASE("memory: a Jacobi PCG solve's estimate (operator, work vectors, refine
     }
 }
 
-TEST_CASE("memory: the geodesic, green and spectrum commands' estimates of their stages are within 15 % of the peaks measured over them", "[memory][cli]") {
+TEST_CASE("memory: a Hodge decomposition's estimate is within 15 % of the resident set it adds, float and refined", "[memory]") {
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);
+    const Band band = block(60);
+    const std::vector<float> V = hodgePreset(band, HodgePreset::Mixed);
+    for (double tolerance : {1e-5, 1e-8}) {
+        HodgeOptions options;
+        options.solver.tolerance = tolerance;
+        options.solver.maxIterations = 20;  // the cap ends the float solve without the fallback to refinement
+        const double estimate = hodgeBytes(band.size(), options);
+        const double before = settledResidentBytes();
+        REQUIRE(resetPeakResident());
+        {
+            const HodgeResult r = hodgeDecomposition(band, V, options);
+            CHECK((r.solver.refinements > 0) == (tolerance < kFloatPcgReach));
+        }
+        const double measured = peakResidentBytes() - before;
+        INFO("tolerance " << tolerance << ": estimated " << estimate / double(band.size()) << " B per voxel, measured "
+                          << measured / double(band.size()));
+        CHECK(estimate > 0.85 * measured);
+        CHECK(estimate < 1.15 * measured);
+    }
+}
+
+TEST_CASE("memory: the geodesic, green, hodge and spectrum commands' estimates of their stages are within 15 % of the peaks measured over them", "[memory][cli]") {
     // In a child gpisvdb, on two sizes: the command's estimated stage (the resident set at its start, which holds
     // the libraries, the input and the band, plus what the stage allocates) against the peak resident set over
     // that stage, both from the child's report. On inputs this small the baseline (≈ 65–70 MB) dominates; the
@@ -114,7 +138,7 @@ TEST_CASE("memory: the geodesic, green and spectrum commands' estimates of their
     // spectrum: its stage (the assembled L, the factor, the Lanczos basis) is 15–45 % of the peak here, so this
     // check is not the baseline's alone
     const std::pair<std::string, std::string> commands[] = {
-        {"geodesic", "--source 0.5,6,1"}, {"green", "--source 0.5,6,1"}, {"spectrum", "-k 5"}};
+        {"geodesic", "--source 0.5,6,1"}, {"green", "--source 0.5,6,1"}, {"hodge", "--preset mixed"}, {"spectrum", "-k 5"}};
     for (const auto& [command, args] : commands)
         for (const char* h : {"0.4", "0.25"}) {
             const Run r = run(command + " " + bunny + " " + args + " --sigma 2 --voxel-size " + std::string(h) +

@@ -83,9 +83,13 @@ void addHodge(CLI::App& app, Action& action) {
             HodgeOptions ho;
             ho.solver = a->solver;
             ho.boundary = a->boundary == "dirichlet" ? Boundary::Dirichlet : Boundary::Neumann;
+            // The decomposition's memory: estimated and refused before it allocates, measured over it (docs/memory.md)
+            const MemoryEstimate memory = estimateStage(job, "Hodge decomposition", {{"hodge", hodgeBytes(band.size(), ho)}});
+            const bool stageOnly = resetPeakResident();
             const auto tSolve = Clock::now();
             const HodgeResult r = hodgeDecomposition(band, V, ho, run.progress);
             const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
+            const double solvePeak = peakResidentBytes();
             requireConverged(r.solver, a->solver);
 
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
@@ -104,6 +108,7 @@ void addHodge(CLI::App& app, Action& action) {
             if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["solver"] = solverReport(r.solver, a->solver);
+                report["memory"]["stages"] = {{"hodge", memoryStageReport(memory, solvePeak, stageOnly)}};
                 report["hodge"] = {{"field", a->preset.empty() ? a->field : "preset:" + a->preset},
                                    {"boundary", a->boundary},
                                    {"divergence_residual", r.divergenceResidual},

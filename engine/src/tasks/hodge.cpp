@@ -91,6 +91,19 @@ double sInnerProduct(const Band& band, const std::vector<float>& a, const std::v
     return s;
 }
 
+double hodgeBytes(std::size_t n, const HodgeOptions& options, bool includeFallback) {
+    const PcgOptions& so = options.solver;
+    const bool refines = so.refinement == Refinement::Always ||
+                         (so.refinement == Refinement::Automatic && (so.tolerance < kFloatPcgReach || includeFallback));
+    const double held = 4 + 4 + 4 + 12 + (options.boundary == Boundary::Neumann ? 4 : 0);  // D_φ V, rhs, ψ, flux, labels
+    // Float: the solve (PCG 20) or the end (G_φ ψ 12, V_free 12, D_φ V_free 4), whichever is larger
+    double phase = std::max(20.0, 28.0);
+    // Refined: the double flux (24) stays from the refinement on; during it rhs and ψ in double (16) and the
+    // double PCG (20 + 24); at the end ψ in double (8) and the parts (28)
+    if (refines) phase = 24 + std::max(16.0 + 44.0, 8.0 + 28.0);
+    return (held + phase) * double(n);
+}
+
 HodgeResult hodgeDecomposition(const Band& band, const std::vector<float>& V, const HodgeOptions& options,
                                const Progress& progress) {
     const std::size_t n = band.size();

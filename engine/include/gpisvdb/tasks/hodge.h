@@ -47,6 +47,14 @@ struct HodgeResult {
 };
 
 /// Splits V (3N) on the band. Throws Error when V has the wrong length or is not finite.
+/// Bytes hodgeDecomposition allocates beside the band and V (docs/memory.md), per voxel: D_φ V, the right-hand side,
+/// ψ, the operator's flux (4 + 4 + 4 + 12), the face labels with Neumann (4), then the larger of the float PCG's
+/// work vectors (20) and the parts and their check (G_φ ψ, V_free, D_φ V_free: 28). When the solve refines (a
+/// tolerance below kFloatPcgReach, Refinement::Always, or `includeFallback` for a float solve that stalls) the
+/// refinement's phase adds the operator's double flux (24), the right-hand side and ψ in double (16) and the
+/// double solve's vectors (44 in all) instead.
+double hodgeBytes(std::size_t n, const HodgeOptions& options, bool includeFallback = false);
+
 HodgeResult hodgeDecomposition(const Band& band, const std::vector<float>& V, const HodgeOptions& options = {},
                                const Progress& progress = {});
 
