@@ -87,6 +87,7 @@ TEST_CASE("memory: a Jacobi PCG solve's estimate (operator, work vectors, refine
         PcgOptions options;
         options.tolerance = tolerance;
         options.maxIterations = 20;
+        options.preconditioner = Preconditioner::Jacobi;  // 343 k unknowns: the automatic choice would be multigrid
         const double estimate = laplacianOperatorBytes(n) + pcgWorkBytes(n, options) + 8.0 * double(n);
         const double before = settledResidentBytes();
         REQUIRE(resetPeakResident());
@@ -104,6 +105,30 @@ TEST_CASE("memory: a Jacobi PCG solve's estimate (operator, work vectors, refine
         CHECK(estimate > 0.85 * measured);
         CHECK(estimate < 1.15 * measured);
     }
+}
+
+TEST_CASE("memory: a multigrid-preconditioned solve's estimate (operator, work vectors, hierarchy) is within 15 % of the resident set it adds", "[memory][multigrid]") {
+    // kMultigridBytesPerVoxel was measured on bunny bands (thin, anisotropic); a block of voxels with the same
+    // stencils everywhere is the other extreme of the band's shapes.
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);
+    const Band band = block(70);
+    const std::size_t n = band.size();
+    PcgOptions options;
+    options.maxIterations = 20;
+    options.preconditioner = Preconditioner::Multigrid;
+    const double estimate = laplacianOperatorBytes(n) + pcgWorkBytes(n, options) + multigridBytes(n) + 8.0 * double(n);
+    const double before = settledResidentBytes();
+    REQUIRE(resetPeakResident());
+    {
+        const LaplacianOperator L(band);
+        std::vector<float> rhs(n, 0.0f), x;
+        rhs[n / 2] = 1.0f;
+        solvePcg(L, rhs, x, options);
+    }
+    const double measured = peakResidentBytes() - before;
+    INFO("estimated " << estimate / double(n) << " B per voxel, measured " << measured / double(n));
+    CHECK(estimate > 0.85 * measured);
+    CHECK(estimate < 1.15 * measured);
 }
 
 TEST_CASE("memory: a Hodge decomposition's estimate is within 15 % of the resident set it adds, float and refined", "[memory]") {
