@@ -268,8 +268,7 @@ std::size_t PcgSolver::memoryBytes() const {
 
 Preconditioner PcgSolver::preconditioner() const { return impl_->options.preconditioner; }
 
-const BoomerAmg* PcgSolver::multigrid() const { return impl_->amg.get();
-}
+const BoomerAmg* PcgSolver::multigrid() const { return impl_->amg.get(); }
 
 PcgResult PcgSolver::solve(const std::vector<float>& b, std::vector<float>& x, const Progress& progress) const {
     const Impl& m = *impl_;

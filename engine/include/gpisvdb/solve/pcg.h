@@ -1,7 +1,8 @@
 #pragma once
 // Preconditioned conjugate gradients for a symmetric positive definite operator (docs/math.md#pcg): float storage,
 // double reductions, working in place on the caller's arrays. The solver allocates its work vectors once
-// (r, z, p, A p and the preconditioner: 5 floats per unknown for Jacobi, plus the incomplete factor for IC), so
+// (r, z, p, A p and the preconditioner: 5 floats per unknown for Jacobi, plus the incomplete factor for IC or the
+// multigrid hierarchy; their set-ups do not poll for cancellation: the CLI's watchdog covers them), so
 // repeated solves — and every iteration — allocate nothing of size N. Iterates until the recursively updated
 // residual satisfies ‖r‖ ≤ tolerance·‖b‖, then checks the true residual b − A x: in float storage the two drift
 // apart, so while the true one misses the tolerance the iteration restarts from it (at most 8 times, and only while
