@@ -138,3 +138,102 @@ TEST_CASE("eigen solver: refuses k out of range, a non-positive mass and an inde
     o.maxBytes = 1e9;
     CHECK_NOTHROW(lowestEigenpairs(L, m, o));
 }
+
+// === LOBPCG with the multigrid (solve/lobpcg.h): the path without a factor
+
+namespace {
+
+EigenOptions lobpcgOptions(int count) {
+    EigenOptions o;
+    o.count = count;
+    o.method = EigenMethod::Lobpcg;
+    return o;
+}
+
+/// Largest principal angle's sine between the column spans of A and B (both M-orthonormal): ‖(I − B Bᵀ M) A‖₂.
+double subspaceSine(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& m) {
+    const Eigen::MatrixXd R = A - B * (B.transpose() * m.asDiagonal() * A);
+    const Eigen::MatrixXd G = R.transpose() * m.asDiagonal() * R;
+    return std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(G).eigenvalues().maxCoeff()));
+}
+
+}  // namespace
+
+TEST_CASE("eigen solver: LOBPCG with the multigrid equals CHOLMOD's Lanczos within 1e-6 in values and subspace", "[eigen][multigrid]") {
+    // The unit sphere's band: λ − λ₀ ≈ l(l+1) with multiplicities 1, 3, 5, so k = 9 ends at a complete cluster and the
+    // spans compare; and the random grid problem, whose spectrum is simple.
+    const Band& sphere = test::sphereBand();
+    const auto [Lr, mr] = randomProblem(12, 5);
+    const SparseMatrixD Ls = assembleLaplacianDouble(sphere);
+    const Eigen::VectorXd ms = massVector(sphere);
+    for (auto [L, m, k] : {std::tuple<const SparseMatrixD*, const Eigen::VectorXd*, int>{&Ls, &ms, 9},
+                           std::tuple<const SparseMatrixD*, const Eigen::VectorXd*, int>{&Lr, &mr, 12}}) {
+        EigenOptions lanczos;
+        lanczos.count = k;
+        lanczos.method = EigenMethod::ShiftInvert;
+        const EigenResult a = lowestEigenpairs(*L, *m, lanczos);
+        const EigenResult b = lowestEigenpairs(*L, *m, lobpcgOptions(k));
+        INFO(L->rows() << " unknowns, k = " << k << ": LOBPCG " << b.iterations << " iterations, block " << b.subspace
+                       << ", multigrid " << b.multigridLevels << " levels");
+        REQUIRE(a.method == EigenMethod::ShiftInvert);
+        REQUIRE(b.method == EigenMethod::Lobpcg);
+        CHECK(b.iterations > 0);
+        CHECK(b.multigridLevels >= 2);
+        for (int i = 0; i < k; ++i) CHECK(b.values(i) == Approx(a.values(i)).epsilon(1e-6));
+        CHECK(b.residuals.maxCoeff() <= 1e-8);
+        CHECK(b.orthonormalityError <= 1e-8);
+        CHECK(subspaceSine(b.vectors, a.vectors, *m) <= 1e-5);
+    }
+}
+
+TEST_CASE("eigen solver: the automatic method takes LOBPCG where CHOLMOD's factor exceeds the memory limit", "[eigen][multigrid]") {
+    const Band& band = test::torusGapBand();
+    const SparseMatrixD L = assembleLaplacianDouble(band);
+    const Eigen::VectorXd m = massVector(band);
+    EigenOptions o;
+    o.count = 6;
+    const EigenResult unlimited = lowestEigenpairs(L, m, o);
+    CHECK(unlimited.method == EigenMethod::ShiftInvert);
+    const double lobpcgNeeds = lobpcgBytes(double(L.rows()), o.count, o.lobpcg);
+    INFO("Lanczos needs " << unlimited.estimatedBytes << " bytes, LOBPCG " << lobpcgNeeds);
+    REQUIRE(lobpcgNeeds < unlimited.estimatedBytes);
+    // A limit between the two: the factor is refused, LOBPCG runs; below both: refused with both named.
+    o.maxBytes = 0.5 * (lobpcgNeeds + unlimited.estimatedBytes);
+    const EigenResult limited = lowestEigenpairs(L, m, o);
+    CHECK(limited.method == EigenMethod::Lobpcg);
+    CHECK(limited.estimatedBytes == Approx(lobpcgNeeds));
+    for (int i = 0; i < o.count; ++i) CHECK(limited.values(i) == Approx(unlimited.values(i)).epsilon(1e-6));
+    o.method = EigenMethod::ShiftInvert;
+    CHECK_THROWS_AS(lowestEigenpairs(L, m, o), MemoryLimitError);
+    o.method = EigenMethod::Automatic;
+    o.maxBytes = 0.5 * lobpcgNeeds;
+    CHECK_THROWS_WITH(lowestEigenpairs(L, m, o), Catch::Contains("LOBPCG"));
+    CHECK_THROWS_AS(lowestEigenpairs(L, m, o), MemoryLimitError);
+}
+
+TEST_CASE("eigen solver: LOBPCG is identical for 1 and 2 threads, and refuses bad options", "[eigen][multigrid]") {
+    const Band& band = test::sphereBand();
+    const SparseMatrixD L = assembleLaplacianDouble(band);
+    const Eigen::VectorXd m = massVector(band);
+    EigenResult r1, r2;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        r1 = lowestEigenpairs(L, m, lobpcgOptions(4));
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        r2 = lowestEigenpairs(L, m, lobpcgOptions(4));
+    }
+    CHECK(r1.iterations == r2.iterations);
+    CHECK(r1.values == r2.values);
+    CHECK(r1.vectors == r2.vectors);
+    EigenOptions bad = lobpcgOptions(4);
+    bad.lobpcg.tolerance = 0;
+    CHECK_THROWS_AS(lowestEigenpairs(L, m, bad), ParameterError);
+    bad = lobpcgOptions(4);
+    bad.lobpcg.maxIterations = 0;
+    CHECK_THROWS_AS(lowestEigenpairs(L, m, bad), ParameterError);
+    bad = lobpcgOptions(4);
+    bad.lobpcg.maxIterations = 2;
+    CHECK_THROWS_AS(lowestEigenpairs(L, m, bad), Error);  // not converged in 2 iterations
+}

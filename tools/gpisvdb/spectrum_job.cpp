@@ -13,6 +13,11 @@ void addEigenFlags(CLI::App& cmd, EigenOptions& o) {
         ->capture_default_str();
     cmd.add_option("--eigen-tolerance", o.tolerance, "relative tolerance on each Ritz value (> 0)")->capture_default_str();
     cmd.add_option("--max-restarts", o.maxRestarts, "Lanczos restart cap (>= 1)")->capture_default_str();
+    cmd.add_option("--eigen-method", o.method,
+                   "auto (default: Lanczos on a Cholesky factor where it fits in --max-memory, else LOBPCG), "
+                   "lanczos, or lobpcg (multigrid-preconditioned, no factor: far less memory)")
+        ->transform(CLI::CheckedTransformer(std::map<std::string, EigenMethod>{
+            {"auto", EigenMethod::Automatic}, {"lanczos", EigenMethod::ShiftInvert}, {"lobpcg", EigenMethod::Lobpcg}}));
 }
 
 std::string eigenGridName(int i) {
@@ -40,6 +45,16 @@ EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const P
 nlohmann::json spectrumReport(const EigenResult& e) {
     std::vector<double> values(e.values.data(), e.values.data() + e.values.size());
     std::vector<double> residuals(e.residuals.data(), e.residuals.data() + e.residuals.size());
+    if (e.method == EigenMethod::Lobpcg)
+        return {{"method", "LOBPCG preconditioned by the multigrid (hypre BoomerAMG)"},
+                {"count", values.size()},
+                {"eigenvalues", values},
+                {"residuals", residuals},
+                {"orthonormality_error", e.orthonormalityError},
+                {"block", e.subspace},
+                {"iterations", e.iterations},
+                {"multigrid", {{"levels", e.multigridLevels}, {"operator_complexity", e.multigridComplexity}}},
+                {"lobpcg_s", e.lobpcgSeconds}};
     return {{"method", "Lanczos (Spectra) on L^-1 M, CHOLMOD supernodal Cholesky of L"},
             {"count", values.size()},
             {"eigenvalues", values},

@@ -108,14 +108,19 @@ struct BoomerAmg::Impl {
 };
 
 BoomerAmg::BoomerAmg(const SparseMatrixF& M, const BoomerAmgOptions& options) : impl_(std::make_unique<Impl>()) {
-    setUp(M, nullptr, options);
+    setUp<SparseMatrixF>(M, nullptr, options);
 }
 
 BoomerAmg::BoomerAmg(SparseMatrixF&& M, const BoomerAmgOptions& options) : impl_(std::make_unique<Impl>()) {
-    setUp(M, &M, options);
+    setUp<SparseMatrixF>(M, &M, options);
 }
 
-void BoomerAmg::setUp(const SparseMatrixF& M, SparseMatrixF* release, const BoomerAmgOptions& options) {
+BoomerAmg::BoomerAmg(const SparseMatrixD& M, const BoomerAmgOptions& options) : impl_(std::make_unique<Impl>()) {
+    setUp<SparseMatrixD>(M, nullptr, options);
+}
+
+template <class Matrix>
+void BoomerAmg::setUp(const Matrix& M, Matrix* release, const BoomerAmgOptions& options) {
     if (!(options.strongThreshold > 0 && options.strongThreshold < 1))
         throw ParameterError("BoomerAmgOptions::strongThreshold must lie in (0, 1)", {"BoomerAmgOptions::strongThreshold"});
     if (options.maxInterpolationEntries < 1)
@@ -167,7 +172,7 @@ void BoomerAmg::setUp(const SparseMatrixF& M, SparseMatrixF* release, const Boom
     std::vector<HYPRE_BigInt>().swap(cols);
     std::vector<HYPRE_Int>().swap(counts);
     std::vector<HYPRE_Real>().swap(values);
-    if (release) *release = SparseMatrixF();
+    if (release) *release = Matrix();
 
     // === Right-hand side and solution vectors of the V-cycle
     for (auto [ij, par] : {std::pair{&m.ijB, &m.b}, std::pair{&m.ijX, &m.x}}) {
@@ -198,8 +203,11 @@ void BoomerAmg::setUp(const SparseMatrixF& M, SparseMatrixF* release, const Boom
 
 BoomerAmg::~BoomerAmg() = default;
 
-void BoomerAmg::apply(const float* r, float* z) const {
-    Impl& m = *impl_;
+void BoomerAmg::apply(const float* r, float* z) const { applyAs(*impl_, r, z); }
+void BoomerAmg::apply(const double* r, double* z) const { applyAs(*impl_, r, z); }
+
+template <class T>
+void BoomerAmg::applyAs(Impl& m, const T* r, T* z) {
     std::lock_guard<std::mutex> lock(hypreLock());
     double* b = localData(m.b);
     double* x = localData(m.x);
@@ -208,7 +216,7 @@ void BoomerAmg::apply(const float* r, float* z) const {
         x[i] = 0.0;
     }
     check(HYPRE_BoomerAMGSolve(m.amg, m.A, m.b, m.x), "BoomerAMGSolve");
-    for (std::size_t i = 0; i < m.n; ++i) z[i] = float(x[i]);
+    for (std::size_t i = 0; i < m.n; ++i) z[i] = T(x[i]);
 }
 
 int BoomerAmg::levels() const { return hypre_ParAMGDataNumLevels(impl_->data()); }

@@ -61,6 +61,34 @@ private:
 
 constexpr Eigen::Index kCheckBlock = 16;  // columns per block of the residual and Gram checks (bounds their memory)
 
+/// Signs fixed (the largest |entry| of each vector, lowest index on ties, positive), then the residuals and the
+/// M-orthonormality measured, in blocks of columns: the same checks whichever solver ran.
+void checkPairs(const SparseMatrixD& L, const Eigen::VectorXd& mass, EigenResult& result, const Progress& progress) {
+    const Eigen::Index k = result.values.size();
+    for (Eigen::Index i = 0; i < k; ++i) {
+        Eigen::Index at = 0;
+        result.vectors.col(i).cwiseAbs().maxCoeff(&at);
+        if (result.vectors(at, i) < 0) result.vectors.col(i) *= -1;
+    }
+
+    // === Check: residuals and M-orthonormality, in blocks of columns
+    result.residuals.resize(k);
+    Eigen::MatrixXd gram(k, k);
+    for (Eigen::Index c = 0; c < k; c += kCheckBlock) {
+        progress.checkInterrupt();
+        const Eigen::Index w = std::min(kCheckBlock, k - c);
+        const auto U = result.vectors.middleCols(c, w);
+        const Eigen::MatrixXd MU = mass.asDiagonal() * U;
+        const Eigen::MatrixXd LU = L * U;
+        for (Eigen::Index j = 0; j < w; ++j) {
+            const double lambda = result.values(c + j);
+            result.residuals(c + j) = (LU.col(j) - lambda * MU.col(j)).norm() / (std::abs(lambda) * MU.col(j).norm());
+        }
+        gram.middleCols(c, w) = result.vectors.transpose() * MU;
+    }
+    result.orthonormalityError = (gram - Eigen::MatrixXd::Identity(k, k)).cwiseAbs().maxCoeff();
+}
+
 }  // namespace
 
 double eigenBytes(double factorNonzeros, double n, double subspace, double count) {
@@ -91,6 +119,30 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
 
     EigenResult result;
     result.subspace = int(ncv);
+    result.matrixNonzeros = double(L.nonZeros());
+    const double lobpcgNeeds = lobpcgBytes(double(n), int(k), options.lobpcg);
+    auto runLobpcg = [&] {
+        result.method = EigenMethod::Lobpcg;
+        result.subspace = lobpcgBlockSize(int(k), options.lobpcg, double(n));
+        result.estimatedBytes = lobpcgNeeds;
+        const auto start = Clock::now();
+        lobpcg(L, mass, int(k), options.lobpcg, result, progress);
+        result.lobpcgSeconds = since(start);
+        progress.update("eigenpairs", 1);
+        checkPairs(L, mass, result, progress);
+        return result;
+    };
+    if (options.method == EigenMethod::Lobpcg) {
+        if (options.maxBytes > 0 && lobpcgNeeds > options.maxBytes)
+            throw MemoryLimitError(std::to_string(k) + " eigenpairs by LOBPCG on a band of " + std::to_string(n) +
+                                       " voxels need about " + numberText(lobpcgNeeds / 1e9) + " GB (its blocks and the "
+                                       "multigrid), more than the " + numberText(options.maxBytes / 1e9) +
+                                       " GB allowed (EigenOptions::maxBytes): lower the eigenpair count "
+                                       "(EigenOptions::count), use a coarser voxel size (BandOptions::voxelSize), or "
+                                       "raise the memory limit",
+                                   {"EigenOptions::maxBytes", "EigenOptions::count", "BandOptions::voxelSize"});
+        return runLobpcg();
+    }
 
     // === Factor L = R Rᵀ (CHOLMOD, supernodal, fill-reducing ordering of its choice), after checking its size
     auto t = Clock::now();
@@ -101,12 +153,18 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     factor.analyzePattern(L);
     const double needed = eigenBytes(factor.cholmod().lnz, double(n), double(ncv), double(k));
     result.estimatedBytes = needed;
-    result.matrixNonzeros = double(L.nonZeros());
+    if (options.maxBytes > 0 && needed > options.maxBytes && options.method == EigenMethod::Automatic &&
+        lobpcgNeeds <= options.maxBytes)
+        return runLobpcg();  // the factor would not fit: no factor at all
     if (options.maxBytes > 0 && needed > options.maxBytes)
         throw MemoryLimitError(std::to_string(k) + " eigenpairs of a band of " + std::to_string(n) + " voxels need about " +
                              numberText(needed / 1e9) + " GB (Cholesky factor of " + numberText(factor.cholmod().lnz) +
                              " entries, Lanczos basis and vectors), more than the " + numberText(options.maxBytes / 1e9) +
-                             " GB allowed (EigenOptions::maxBytes): lower the eigenpair count (EigenOptions::count), use a coarser "
+                             " GB allowed (EigenOptions::maxBytes)" +
+                             (options.method == EigenMethod::Automatic
+                                  ? std::string(", and LOBPCG without a factor about ") + numberText(lobpcgNeeds / 1e9) + " GB"
+                                  : std::string()) +
+                             ": lower the eigenpair count (EigenOptions::count), use a coarser "
                              "voxel size (BandOptions::voxelSize), or raise the memory limit",
                              {"EigenOptions::maxBytes", "EigenOptions::count", "BandOptions::voxelSize"});
     progress.checkInterrupt();
@@ -143,29 +201,7 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     result.lanczosSeconds = since(t);
     progress.update("eigenpairs", 1);
 
-    // === Fix signs: the largest |entry| of each vector (lowest index on ties) is positive
-    for (Eigen::Index i = 0; i < k; ++i) {
-        Eigen::Index at = 0;
-        result.vectors.col(i).cwiseAbs().maxCoeff(&at);
-        if (result.vectors(at, i) < 0) result.vectors.col(i) *= -1;
-    }
-
-    // === Check: residuals and M-orthonormality, in blocks of columns
-    result.residuals.resize(k);
-    Eigen::MatrixXd gram(k, k);
-    for (Eigen::Index c = 0; c < k; c += kCheckBlock) {
-        progress.checkInterrupt();
-        const Eigen::Index w = std::min(kCheckBlock, k - c);
-        const auto U = result.vectors.middleCols(c, w);
-        const Eigen::MatrixXd MU = mass.asDiagonal() * U;
-        const Eigen::MatrixXd LU = L * U;
-        for (Eigen::Index j = 0; j < w; ++j) {
-            const double lambda = result.values(c + j);
-            result.residuals(c + j) = (LU.col(j) - lambda * MU.col(j)).norm() / (std::abs(lambda) * MU.col(j).norm());
-        }
-        gram.middleCols(c, w) = result.vectors.transpose() * MU;
-    }
-    result.orthonormalityError = (gram - Eigen::MatrixXd::Identity(k, k)).cwiseAbs().maxCoeff();
+    checkPairs(L, mass, result, progress);
     return result;
 }
 

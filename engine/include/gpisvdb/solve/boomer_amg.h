@@ -35,12 +35,15 @@ public:
     explicit BoomerAmg(const SparseMatrixF& A, const BoomerAmgOptions& options = {});
     /// The same, freeing A as soon as hypre holds its copy, before the hierarchy is built (less peak memory).
     explicit BoomerAmg(SparseMatrixF&& A, const BoomerAmgOptions& options = {});
+    /// The same from L in double (compressed columns: A symmetric, so they are read as its rows).
+    explicit BoomerAmg(const SparseMatrixD& A, const BoomerAmgOptions& options = {});
     ~BoomerAmg();
     BoomerAmg(const BoomerAmg&) = delete;
     BoomerAmg& operator=(const BoomerAmg&) = delete;
 
     /// z = B r, B ≈ A⁻¹ one V-cycle from z = 0 (r and z of length N, not aliased).
     void apply(const float* r, float* z) const;
+    void apply(const double* r, double* z) const;
 
     int levels() const;                ///< levels of the hierarchy, the finest included
     double operatorComplexity() const; ///< Σ nonzeros of all levels' operators / nonzeros of A
@@ -48,8 +51,11 @@ public:
     std::size_t memoryBytes() const;
 
 private:
-    void setUp(const SparseMatrixF& A, SparseMatrixF* release, const BoomerAmgOptions& options);
+    template <class Matrix>
+    void setUp(const Matrix& A, Matrix* release, const BoomerAmgOptions& options);
     struct Impl;
+    template <class T>
+    static void applyAs(Impl& m, const T* r, T* z);
     std::unique_ptr<Impl> impl_;
 };
 

@@ -3,22 +3,32 @@
 // positive definite (the band Laplacian with homogeneous Dirichlet conditions), M diagonal positive (the mass).
 // Method, chosen by measurement (docs/spectrum.md, bench/results/spectrum.json): implicitly restarted Lanczos
 // (Spectra) on the shift-invert operator L⁻¹ M, with L factored once by CHOLMOD's supernodal Cholesky. The
-// Lanczos basis is M-orthonormal, so the eigenvectors come out with UᵀMU = I.
+// Lanczos basis is M-orthonormal, so the eigenvectors come out with UᵀMU = I. Where the factor would not fit in
+// EigenOptions::maxBytes, LOBPCG with the multigrid preconditioner (solve/lobpcg.h) takes over (EigenMethod).
 #include <cstddef>
 #include <string>
 #include <Eigen/Core>
 
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/ops/linear_operator.h"
+#include "gpisvdb/solve/lobpcg.h"
 
 namespace gpisvdb {
+
+enum class EigenMethod {
+    Automatic,     ///< Lanczos on CHOLMOD's factor when it fits in maxBytes (faster where it fits), else LOBPCG
+    ShiftInvert,   ///< Lanczos on L⁻¹M through CHOLMOD's factor (refused beyond maxBytes)
+    Lobpcg,        ///< LOBPCG preconditioned by the multigrid (solve/lobpcg.h): no factor
+};
 
 struct EigenOptions {
     int count = 20;            ///< k, the number of lowest pairs wanted (1 ≤ k < N)
     int subspace = 0;          ///< Lanczos basis size (k < ncv ≤ N); 0: max(2k, k + 20), capped at N. Memory: 16·N·ncv bytes
     double tolerance = 1e-10;  ///< Spectra's relative tolerance on each Ritz value of L⁻¹M
     int maxRestarts = 1000;    ///< cap on Lanczos restarts before giving up
-    double maxBytes = 0;       ///< refuse (ParameterError) when the factor, basis and vectors would need more; 0: no cap
+    double maxBytes = 0;       ///< refuse (MemoryLimitError) when the solve would need more; 0: no cap
+    EigenMethod method = EigenMethod::Automatic;  ///< which solver (above)
+    LobpcgOptions lobpcg = {};  ///< the LOBPCG path's tolerance, iteration cap, guard vectors and hierarchy
 };
 
 struct EigenResult {
@@ -35,6 +45,11 @@ struct EigenResult {
     std::string ordering;           ///< the fill-reducing ordering CHOLMOD chose (AMD, METIS, NESDIS, ...)
     double estimatedBytes = 0;      ///< eigenBytes as estimated before the numeric factorisation (what maxBytes bounds)
     double matrixNonzeros = 0;      ///< stored entries of L (the caller's matrix; 12 bytes each in double)
+    EigenMethod method = EigenMethod::ShiftInvert;  ///< the solver that ran (Automatic resolved)
+    long iterations = 0;            ///< LOBPCG: iterations
+    int multigridLevels = 0;        ///< LOBPCG: levels of the preconditioner's hierarchy
+    double multigridComplexity = 0; ///< LOBPCG: its operator complexity
+    double lobpcgSeconds = 0;       ///< LOBPCG: the whole solve, the multigrid's set-up included
 };
 
 /// Bytes the solve needs beyond L and M, estimated before the numeric factorisation: 12 per entry of the
