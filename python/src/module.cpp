@@ -504,10 +504,18 @@ EigenOptions eigenOptions(const PyBand& b, int k, int subspace, double tolerance
     return o;
 }
 
+EigenMethod eigenMethod(const std::string& method) {
+    if (method == "auto") return EigenMethod::Automatic;
+    if (method == "lanczos") return EigenMethod::ShiftInvert;
+    if (method == "lobpcg") return EigenMethod::Lobpcg;
+    throw ParameterError("method must be 'auto', 'lanczos' or 'lobpcg', got '" + method + "'");
+}
+
 py::dict eigenInfo(const EigenResult& e) {
     return py::dict("residuals"_a = py::array_t<double>(py::ssize_t(e.residuals.size()), e.residuals.data()),
                     "orthonormality_error"_a = e.orthonormalityError, "subspace"_a = e.subspace, "restarts"_a = e.restarts,
-                    "solves"_a = e.solves, "factor_nonzeros"_a = e.factorNonzeros, "ordering"_a = e.ordering);
+                    "solves"_a = e.solves, "factor_nonzeros"_a = e.factorNonzeros, "ordering"_a = e.ordering,
+                    "method"_a = e.method == EigenMethod::Lobpcg ? "lobpcg" : "lanczos", "iterations"_a = e.iterations);
 }
 
 /// An Eigen matrix (column-major) as a C-ordered numpy copy.
@@ -518,8 +526,10 @@ py::array matrixCopy(const Eigen::MatrixXd& m) {
     return std::move(a);
 }
 
-py::tuple spectrumTask(const PyBand& b, int k, int subspace, double tolerance, int maxRestarts, int threads, py::object progress) {
-    const EigenOptions o = eigenOptions(b, k, subspace, tolerance, maxRestarts);
+py::tuple spectrumTask(const PyBand& b, int k, int subspace, double tolerance, int maxRestarts, const std::string& method,
+                       int threads, py::object progress) {
+    EigenOptions o = eigenOptions(b, k, subspace, tolerance, maxRestarts);
+    o.method = eigenMethod(method);
     Work work(threads, std::move(progress));
     EigenResult e = work([&](const Progress& progress) { return spectrum(b.band(), o, progress); });
     return py::make_tuple(py::array_t<double>(py::ssize_t(e.values.size()), e.values.data()), matrixCopy(e.vectors),
@@ -896,11 +906,13 @@ Returns a dict: 'distance' (N,) float64 U (world units x T^-1/2; inf where not r
 p_i x 3 float64 polylines, world units, target to source), 'path_length' (t,) Euclidean lengths, 'path_distance'
 (t,) U at each target, 'reached_source' (t,) bool, 'source_index', 'target_index', 'reached', 'unreached'.)doc")
         .def("spectrum", &spectrumTask, "k"_a = EigenOptions{}.count, py::kw_only(), "subspace"_a = 0,
-             "eigen_tolerance"_a = EigenOptions{}.tolerance, "max_restarts"_a = EigenOptions{}.maxRestarts, "threads"_a = 0,
-             "progress"_a = py::none(),
+             "eigen_tolerance"_a = EigenOptions{}.tolerance, "max_restarts"_a = EigenOptions{}.maxRestarts,
+             "method"_a = "auto", "threads"_a = 0, "progress"_a = py::none(),
              R"doc(The k lowest eigenpairs of L u = lambda M u (docs/spectrum.md), as `gpisvdb spectrum`.
 Returns (values, vectors, info): values (k,) float64 ascending, world units^-2; vectors (N, k) float64,
-M-orthonormal (sum u_i u_j mu h^3 = delta_ij); info: residuals, orthonormality error, solver counts.)doc")
+M-orthonormal (sum u_i u_j mu h^3 = delta_ij); info: residuals, orthonormality error, solver counts, method.
+method: 'auto' (Lanczos on a Cholesky factor where it fits in memory, else LOBPCG), 'lanczos' or 'lobpcg'
+(multigrid-preconditioned, no factor; docs/spectrum.md#lobpcg).)doc")
         .def("regress", &regress, "points"_a, "values"_a, "noise"_a = py::none(), py::kw_only(), "k"_a = 200, "nu"_a = 1.5,
              "kappa"_a = py::none(), "amplitude"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
              R"doc(Gaussian-process regression of scalar data on the GPIS with the Matern kernel of its k lowest eigenpairs

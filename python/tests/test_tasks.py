@@ -72,6 +72,20 @@ def test_spectrum_is_m_orthonormal_and_equals_the_command_line(band, sphere_obj,
     assert max(info["residuals"]) < 1e-6
 
 
+def test_spectrum_by_lobpcg_equals_lanczos_and_the_command_line(band, sphere_obj, tmp_path):
+    lanczos, _, info_l = band.spectrum(4, method="lanczos")
+    lobpcg, _, info_b = band.spectrum(4, method="lobpcg")
+    assert info_l["method"] == "lanczos" and info_b["method"] == "lobpcg" and info_b["iterations"] > 0
+    np.testing.assert_allclose(lobpcg, lanczos, rtol=1e-6)
+    run_cli("spectrum", sphere_obj, "-k", 4, "--eigen-method", "lobpcg", "-o", tmp_path / "s.vdb",
+            "--report", tmp_path / "s.json", *FLAGS)
+    report = json.load(open(tmp_path / "s.json"))["spectrum"]
+    assert report["method"].startswith("LOBPCG")
+    np.testing.assert_allclose(report["eigenvalues"], lobpcg, rtol=1e-9)
+    with pytest.raises(gpisvdb.ParameterError):
+        band.spectrum(4, method="arpack")
+
+
 def test_regression_interpolates_exact_data(band):
     rng = np.random.default_rng(5)
     idx = rng.choice(np.flatnonzero(band.mu > np.median(band.mu)), 12, replace=False)

@@ -161,7 +161,8 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
         //     blocks lose the digits that carry them and the iteration stagnates (measured: near 1e-4 here)
         const auto conditionBlock = [&](MatrixXd& B, Index cols) {
             if (cols == 0) return;
-            B.leftCols(cols) -= X * (T2.transpose() * B.leftCols(cols));  // T2 = M X
+            const MatrixXd XtMB = T2.transpose() * B.leftCols(cols);  // T2 = M X; m × cols
+            B.leftCols(cols).noalias() -= X * XtMB;                    // no N-row temporary
             for (Index c = 0; c < cols; ++c) {
                 const double norm = std::sqrt((B.col(c).array().square() * mass.array()).sum());
                 if (norm > 0) B.col(c) /= norm;
