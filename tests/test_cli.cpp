@@ -255,7 +255,7 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
         {"spectrum " + bunny + " -k 0 -o " + vdb, "-k"},
         {"spectrum " + bunny + " -k 100000 -o " + vdb + " --voxel-size 0.4 --sigma 2", "between 1 and"},
         {"spectrum " + bunny + " -k 200 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M",
-         "allowed (--max-memory): lower the eigenpair count (-k), use a coarser voxel size (--voxel-size), or raise"},
+         "allowed (--max-memory), and LOBPCG without a factor about"},
         {"spectrum " + bunny + " -k 4 --eigen-tolerance 0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "tolerance"},
         {"regress " + bunny + " --data /nonexistent.csv -o " + vdb, "no such file"},
         {"regress " + bunny + " --data " + temp("cols.csv", "x,y,z,v\n1,2,3\n") + " -o " + vdb, "4 or 5 columns"},
