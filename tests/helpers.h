@@ -28,6 +28,11 @@ inline constexpr bool kTimingChecked = false;
 inline constexpr bool kTimingChecked = true;
 #endif
 
+/// Whether measured memory (resident set, its peak) is checked against estimates. Not in sanitizer builds, whose
+/// allocator adds redzones to every block, keeps freed blocks in quarantine and grows its own tables in the
+/// background: there the tests run every step and report the figures only.
+inline constexpr bool kMemoryChecked = kTimingChecked;
+
 /// Every triangle with its own three vertices (a soup in the App. B sense: no shared noise).
 inline TriangleSoup unshare(const TriangleSoup& s) {
     TriangleSoup out;

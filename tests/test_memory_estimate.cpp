@@ -21,6 +21,18 @@ using namespace gpisvdb::test::cli;
 
 namespace {
 
+/// The estimate within 15 % of the measured bytes: checked where memory measures the code (test::kMemoryChecked),
+/// reported in sanitizer builds.
+void checkWithin15Percent(double estimate, double measured) {
+    if (!test::kMemoryChecked) {
+        WARN("estimate " << estimate << " bytes, measured " << measured << " (not checked in this build)");
+        return;
+    }
+    CHECK(estimate > 0.85 * measured);
+    CHECK(estimate < 1.15 * measured);
+}
+
+
 /// A full n³ block of voxels, h = 1 / n, with an anisotropic constant tensor (μ = 1): wide Selling stencils, as
 /// on a band, without building one from a model (fast enough for a few hundred thousand voxels).
 Band block(int n) {
@@ -45,7 +57,7 @@ TEST_CASE("memory: the resident set is read from /proc and its peak restarts at 
     const double now = residentBytes(), peak = peakResidentBytes();
     CHECK(now > 1e6);
     CHECK(peak >= now);
-    if (resetPeakResident()) CHECK(peakResidentBytes() <= peak);
+    if (resetPeakResident() && test::kMemoryChecked) CHECK(peakResidentBytes() <= peak);
     MemoryEstimate e;
     e.baselineBytes = 100;
     e.parts = {{"a", 20}, {"b", 5}};
@@ -71,9 +83,8 @@ TEST_CASE("memory: a march's estimate is within 15 % of the resident set it adds
         const double measured = peakResidentBytes() - before;
         INFO(band.size() << " voxels: estimated " << estimate / double(band.size()) << " B per voxel, measured "
                          << measured / double(band.size()));
-        CHECK(estimate > 0.85 * measured);
-        CHECK(estimate < 1.15 * measured);
-        CHECK(measured < 100.0 * double(band.size()));  // issue 18 item 6: ≤ 100 B per voxel beside the band
+        checkWithin15Percent(estimate, measured);
+        if (test::kMemoryChecked) CHECK(measured < 100.0 * double(band.size()));  // issue 18 item 6: ≤ 100 B per voxel
     }
 }
 
@@ -102,8 +113,7 @@ TEST_CASE("memory: a Jacobi PCG solve's estimate (operator, work vectors, refine
         const double measured = peakResidentBytes() - before;
         INFO("tolerance " << tolerance << ": estimated " << estimate / double(n) << " B per voxel, measured "
                           << measured / double(n));
-        CHECK(estimate > 0.85 * measured);
-        CHECK(estimate < 1.15 * measured);
+        checkWithin15Percent(estimate, measured);
     }
 }
 
@@ -127,8 +137,7 @@ TEST_CASE("memory: a multigrid-preconditioned solve's estimate (operator, work v
     }
     const double measured = peakResidentBytes() - before;
     INFO("estimated " << estimate / double(n) << " B per voxel, measured " << measured / double(n));
-    CHECK(estimate > 0.85 * measured);
-    CHECK(estimate < 1.15 * measured);
+    checkWithin15Percent(estimate, measured);
 }
 
 TEST_CASE("memory: a Hodge decomposition's estimate is within 15 % of the resident set it adds, float and refined", "[memory]") {
@@ -149,8 +158,7 @@ TEST_CASE("memory: a Hodge decomposition's estimate is within 15 % of the reside
         const double measured = peakResidentBytes() - before;
         INFO("tolerance " << tolerance << ": estimated " << estimate / double(band.size()) << " B per voxel, measured "
                           << measured / double(band.size()));
-        CHECK(estimate > 0.85 * measured);
-        CHECK(estimate < 1.15 * measured);
+        checkWithin15Percent(estimate, measured);
     }
 }
 
@@ -175,7 +183,6 @@ TEST_CASE("memory: the geodesic, green, hodge and spectrum commands' estimates o
             const double estimate = stage["estimate_bytes"], measured = stage["measured_peak_bytes"];
             INFO("estimate " << estimate << ", measured " << measured);
             CHECK(stage["stage_only"] == true);
-            CHECK(estimate > 0.85 * measured);
-            CHECK(estimate < 1.15 * measured);
+            checkWithin15Percent(estimate, measured);
         }
 }
