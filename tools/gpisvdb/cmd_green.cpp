@@ -50,10 +50,8 @@ void addGreen(CLI::App& app, Action& action) {
             // The operator's and the solve's memory (Jacobi and multigrid; IC's factor is not estimated): estimated
             // and refused before they allocate, measured over them (docs/memory.md). The matrix-free L is what
             // the PCG applies; the multigrid's set-up assembles L for hypre and keeps only its hierarchy.
-            const Preconditioner preconditioner = a->solver.preconditioner == Preconditioner::Automatic
-                                                      ? (band.size() >= kMultigridMinUnknowns ? Preconditioner::Multigrid
-                                                                                             : Preconditioner::Jacobi)
-                                                      : a->solver.preconditioner;
+            const Preconditioner preconditioner =
+                resolvePreconditioner(a->solver.preconditioner, band.size(), /*assemblable: L*/ true);
             const bool estimated = preconditioner != Preconditioner::IncompleteCholesky;
             MemoryEstimate memory;
             if (estimated) {

@@ -59,6 +59,36 @@ struct Node {
     float lambda[6];
 };
 
+/// Sifts of an indexed 4-ary min-heap (entries ordered by operator<): e moves up from slot i, or down from the root;
+/// place(i, e) writes e at slot i and records its position wherever the caller keeps positions.
+template <class Entry, class Place>
+void heapSiftUp(std::vector<Entry>& heap, std::uint32_t i, const Entry& e, Place place) {
+    while (i > 0) {
+        const std::uint32_t parent = (i - 1) / 4;
+        if (!(e < heap[parent])) break;
+        place(i, heap[parent]);
+        i = parent;
+    }
+    place(i, e);
+}
+
+template <class Entry, class Place>
+void heapSiftDown(std::vector<Entry>& heap, const Entry& e, Place place) {
+    const std::uint32_t size = std::uint32_t(heap.size());
+    std::uint32_t i = 0;
+    for (;;) {
+        const std::uint32_t first = 4 * i + 1;
+        if (first >= size) break;
+        std::uint32_t best = first;
+        for (std::uint32_t c = first + 1; c < std::min(first + 4, size); ++c)
+            if (heap[c] < heap[best]) best = c;
+        if (!(heap[best] < e)) break;
+        place(i, heap[best]);
+        i = best;
+    }
+    place(i, e);
+}
+
 /// The front: an indexed 4-ary min-heap of voxels ordered by (U, index), with decrease-key, so each voxel sits in
 /// it once; entries carry their key, so sifting reads the heap only. Its position table also marks accepted voxels.
 class Front {
@@ -97,28 +127,10 @@ private:
     };
     void place(std::uint32_t i, const Entry& e) { heap_[i] = e, pos_[e.voxel] = i; }
     void siftUp(std::uint32_t i, const Entry& e) {
-        while (i > 0) {
-            const std::uint32_t parent = (i - 1) / 4;
-            if (!(e < heap_[parent])) break;
-            place(i, heap_[parent]);
-            i = parent;
-        }
-        place(i, e);
+        heapSiftUp(heap_, i, e, [this](std::uint32_t at, const Entry& x) { place(at, x); });
     }
     void siftDown(const Entry& e) {  // e enters at the root
-        const std::uint32_t size = std::uint32_t(heap_.size());
-        std::uint32_t i = 0;
-        for (;;) {
-            const std::uint32_t first = 4 * i + 1;
-            if (first >= size) break;
-            std::uint32_t best = first;
-            for (std::uint32_t c = first + 1; c < std::min(first + 4, size); ++c)
-                if (heap_[c] < heap_[best]) best = c;
-            if (!(heap_[best] < e)) break;
-            place(i, heap_[best]);
-            i = best;
-        }
-        place(i, e);
+        heapSiftDown(heap_, e, [this](std::uint32_t at, const Entry& x) { place(at, x); });
     }
 
     std::vector<std::uint32_t> pos_;
@@ -187,28 +199,10 @@ private:
     };
     void place(std::uint32_t i, const Entry& e) { heap_[i] = e, pool_[e.slot].heapPos = i; }
     void siftUp(std::uint32_t i, const Entry& e) {
-        while (i > 0) {
-            const std::uint32_t parent = (i - 1) / 4;
-            if (!(e < heap_[parent])) break;
-            place(i, heap_[parent]);
-            i = parent;
-        }
-        place(i, e);
+        heapSiftUp(heap_, i, e, [this](std::uint32_t at, const Entry& x) { place(at, x); });
     }
-    void siftDown(const Entry& e) {
-        const std::uint32_t size = std::uint32_t(heap_.size());
-        std::uint32_t i = 0;
-        for (;;) {
-            const std::uint32_t first = 4 * i + 1;
-            if (first >= size) break;
-            std::uint32_t best = first;
-            for (std::uint32_t c = first + 1; c < std::min(first + 4, size); ++c)
-                if (heap_[c] < heap_[best]) best = c;
-            if (!(heap_[best] < e)) break;
-            place(i, heap_[best]);
-            i = best;
-        }
-        place(i, e);
+    void siftDown(const Entry& e) {  // e enters at the root
+        heapSiftDown(heap_, e, [this](std::uint32_t at, const Entry& x) { place(at, x); });
     }
 
     std::vector<Touched>& pool_;

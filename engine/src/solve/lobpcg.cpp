@@ -117,6 +117,7 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
         X.swap(T1);
     }
 
+    std::vector<double> z(static_cast<std::size_t>(n));  // one V-cycle's output
     Index previous = 0;  // columns of P in use
     std::vector<Index> active;
     VectorXd residual(m);
@@ -146,7 +147,6 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
         const Index a = Index(active.size());
 
         // === W = B R for the active pairs (compacted to W's first a columns)
-        std::vector<double> z(static_cast<std::size_t>(n));
         for (Index j = 0; j < a; ++j) {
             progress.checkInterrupt();
             amg.apply(W.col(active[std::size_t(j)]).data(), z.data());

@@ -239,9 +239,13 @@ const char* preconditionerName(Preconditioner p) {
     return "?";
 }
 
-Preconditioner resolvePreconditioner(Preconditioner requested, const SymmetricOperator& A) {
+Preconditioner resolvePreconditioner(Preconditioner requested, std::size_t unknowns, bool assemblable) {
     if (requested != Preconditioner::Automatic) return requested;
-    return A.size() >= kMultigridMinUnknowns && A.assemblable() ? Preconditioner::Multigrid : Preconditioner::Jacobi;
+    return unknowns >= kMultigridMinUnknowns && assemblable ? Preconditioner::Multigrid : Preconditioner::Jacobi;
+}
+
+Preconditioner resolvePreconditioner(Preconditioner requested, const SymmetricOperator& A) {
+    return resolvePreconditioner(requested, A.size(), A.assemblable());
 }
 
 PcgSolver::PcgSolver(const SymmetricOperator& A, const PcgOptions& o) {

@@ -38,7 +38,10 @@ enum class Preconditioner {
 /// bands: docs/operators.md#multigrid).
 constexpr std::size_t kMultigridMinUnknowns = 100000;
 
-/// The preconditioner Automatic resolves to for this operator (the others resolve to themselves).
+/// The preconditioner Automatic resolves to for an operator of `unknowns` unknowns that can or cannot be assembled
+/// (the others resolve to themselves): known before the operator is built, for memory estimates.
+Preconditioner resolvePreconditioner(Preconditioner requested, std::size_t unknowns, bool assemblable);
+/// The same for this operator.
 Preconditioner resolvePreconditioner(Preconditioner requested, const SymmetricOperator& A);
 
 /// Smallest tolerance accepted: met on every band measured (4.8e-13 on the bunny bands); below it double's own
