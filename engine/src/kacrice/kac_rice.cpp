@@ -43,8 +43,8 @@ void finish(double norms, const Mat3d& outer, const QmcRule& rule, SurfaceDensit
 }
 
 // === Expectations in SIMD lanes: eight QMC points per step, one partial sum per lane, lanes summed in a fixed
-// order. As in the Barnes–Hut packets (barnes_hut_packet.cpp), one clone per instruction set and no FMA
-// contraction (-ffp-contract=off for this file), so every CPU gives the same bits.
+// order. As in the Barnes–Hut packets (barnes_hut_packet.cpp), one clone per instruction set; the AVX2 and AVX-512
+// clones contract multiply-adds into FMA, so CPUs may differ in the last bits (never thread counts).
 #ifdef GPISVDB_PACKET_CLONES
 #elif defined(__SANITIZE_THREAD__)
 #define GPISVDB_PACKET_CLONES  // one clone: ThreadSanitizer crashes in an ifunc resolver (barnes_hut_packet.cpp)

@@ -96,48 +96,71 @@ void erfExp(const double* x, const double* y, double* ex, double* ey) {
 }
 #endif
 
-/// F_1…F_4 per lane: RegularizedKernel::at's formulas, the closed forms computed in lanes.
+/// 1/(2m + 2k + 1) and 1/(m + 1) of the kernel's power series (RegularizedKernel::at).
+struct SeriesTable {
+    double inv[RegularizedKernel::kSeriesTerms][4];  // k = 1…4
+    double next[RegularizedKernel::kSeriesTerms];
+    SeriesTable() {
+        for (int m = 0; m < RegularizedKernel::kSeriesTerms; ++m) {
+            for (int k = 1; k <= 4; ++k) inv[m][k - 1] = 1.0 / double(2 * m + 2 * k + 1);
+            next[m] = 1.0 / double(m + 1);
+        }
+    }
+};
+const SeriesTable kSeries;
+
+/// F_1…F_4 per lane: RegularizedKernel::at's formulas (series, closed forms, pure Newton terms), computed in lanes.
 GPISVDB_LANES_INLINE LaneKernel kernelAt(const RegularizedKernel& kernel, const Lanes& t) {
     LaneKernel F;
-    bool newton = true, series = false;
+    bool newton = true, series = false, closed = false;
     for (int l = 0; l < kLanes; ++l) {
         newton = newton && t[l] > kernel.newtonDistance2();
         series = series || t[l] < kernel.seriesDistance2();
+        closed = closed || !(t[l] < kernel.seriesDistance2());
     }
-    if (series) {  // a lane within ~3s of the point: the series, one lane at a time
-        for (int l = 0; l < kLanes; ++l) {
-            const RadialDerivatives f = kernel.at(t[l]);
-            F.F1[l] = f.F1, F.F2[l] = f.F2, F.F3[l] = f.F3, F.F4[l] = f.F4;
-        }
-        return F;
-    }
-    Lanes r;
-    for (int l = 0; l < kLanes; ++l) r[l] = std::sqrt(t[l]);
-    const Lanes ir = 1.0 / r, u = 1.0 / t;
-    if (newton) {
-        // Every lane beyond the Gaussian's reach: the pure Newton terms.
-        F.F1 = -ir * u;
-        F.F2 = 3.0 * ir * u * u;
-        F.F3 = -15.0 * ir * u * u * u;
-        F.F4 = 105.0 * ir * u * u * u * u;
-        return F;
-    }
-    // === Closed forms: F_k = c_k erf(ar) r^-(2k+1) + g P_k(r), g = (2a/√π) exp(−a²r²) (kernel.h)
     const double a = kernel.erfScale(), a2 = a * a, a4 = a2 * a2, a6 = a4 * a2, c = kernel.gaussianFactor();
-    double ar[kLanes], mt[kLanes], erfs[kLanes], exps[kLanes];
-    for (int l = 0; l < kLanes; ++l) ar[l] = a * r[l], mt[l] = -a2 * t[l];
-    erfExp(ar, mt, erfs, exps);
-    Lanes E, g;
-    for (int l = 0; l < kLanes; ++l) {
-        const bool far = t[l] > kernel.newtonDistance2();  // as at(): erf = 1 and no Gaussian term there
-        E[l] = far ? 1.0 : erfs[l];
-        g[l] = far ? 0.0 : c * exps[l];
+    if (closed) {
+        // 1/r and 1/r² from one square root and one division (r = 0 happens only in series lanes, replaced below)
+        Lanes r;
+        for (int l = 0; l < kLanes; ++l) r[l] = std::sqrt(t[l]);
+        const Lanes ir = 1.0 / r, u = ir * ir;
+        if (newton) {
+            // Every lane beyond the Gaussian's reach: the pure Newton terms.
+            F.F1 = -ir * u;
+            F.F2 = 3.0 * ir * u * u;
+            F.F3 = -15.0 * ir * u * u * u;
+            F.F4 = 105.0 * ir * u * u * u * u;
+            return F;
+        }
+        // === Closed forms: F_k = c_k erf(ar) r^-(2k+1) + g P_k(r), g = (2a/√π) exp(−a²r²) (kernel.h)
+        double ar[kLanes], mt[kLanes], erfs[kLanes], exps[kLanes];
+        for (int l = 0; l < kLanes; ++l) ar[l] = a * r[l], mt[l] = -a2 * t[l];
+        erfExp(ar, mt, erfs, exps);
+        Lanes E, g;
+        for (int l = 0; l < kLanes; ++l) {
+            const bool far = t[l] > kernel.newtonDistance2();  // as at(): erf = 1 and no Gaussian term there
+            E[l] = far ? 1.0 : erfs[l];
+            g[l] = far ? 0.0 : c * exps[l];
+        }
+        const Lanes Eir = E * ir, u2 = u * u, u3 = u2 * u, u4 = u3 * u;
+        F.F1 = -Eir * u + g * u;
+        F.F2 = 3.0 * Eir * u2 - g * (3.0 * u2 + 2.0 * a2 * u);
+        F.F3 = -15.0 * Eir * u3 + g * (15.0 * u3 + 10.0 * a2 * u2 + 4.0 * a4 * u);
+        F.F4 = 105.0 * Eir * u4 - g * (105.0 * u4 + 70.0 * a2 * u3 + 28.0 * a4 * u2 + 8.0 * a6 * u);
     }
-    const Lanes Eir = E * ir, u2 = u * u, u3 = u2 * u, u4 = u3 * u;
-    F.F1 = -Eir * u + g * u;
-    F.F2 = 3.0 * Eir * u2 - g * (3.0 * u2 + 2.0 * a2 * u);
-    F.F3 = -15.0 * Eir * u3 + g * (15.0 * u3 + 10.0 * a2 * u2 + 4.0 * a4 * u);
-    F.F4 = 105.0 * Eir * u4 - g * (105.0 * u4 + 70.0 * a2 * u3 + 28.0 * a4 * u2 + 8.0 * a6 * u);
+    if (series) {
+        // === Series (a lane within ~3s of the point): F_k = c (−2a²)^k Σ_m (−a²t)^m / (m! (2m+2k+1)), in lanes
+        Lanes sum[4] = {splat(0), splat(0), splat(0), splat(0)}, term = splat(1.0);
+        const Lanes x = -a2 * t;
+        for (int m = 0; m < RegularizedKernel::kSeriesTerms; ++m) {
+            for (int k = 0; k < 4; ++k) sum[k] += term * kSeries.inv[m][k];
+            term *= x * kSeries.next[m];
+        }
+        const double s1 = -2.0 * a2 * c, s2 = -2.0 * a2 * s1, s3 = -2.0 * a2 * s2, s4 = -2.0 * a2 * s3;
+        for (int l = 0; l < kLanes; ++l)
+            if (t[l] < kernel.seriesDistance2())
+                F.F1[l] = s1 * sum[0][l], F.F2[l] = s2 * sum[1][l], F.F3[l] = s3 * sum[2][l], F.F4[l] = s4 * sum[3][l];
+    }
     return F;
 }
 
@@ -151,57 +174,6 @@ struct LaneSums {
             for (auto& c : row) c = splat(0);
     }
 };
-
-/// D²ρ(y) as a symmetric 3×3 per lane.
-GPISVDB_LANES_INLINE void hessian(const LaneKernel& F, const LaneVec3& y, Lanes D2[3][3]) {
-    for (int i = 0; i < 3; ++i)
-        for (int j = i; j < 3; ++j) {
-            D2[i][j] = F.F2 * y[i] * y[j];
-            if (i == j) D2[i][j] += F.F1;
-            D2[j][i] = D2[i][j];
-        }
-}
-
-/// (D³ρ : X)_k for a 3×3 X (as contract3 in barnes_hut_gpis.cpp).
-GPISVDB_LANES_INLINE void contract3(const LaneKernel& F, const LaneVec3& y, const Mat3d& X, Lanes out[3]) {
-    const double tr = X.trace();
-    Lanes Xy[3], XTy[3];
-    for (int i = 0; i < 3; ++i) {
-        Xy[i] = X(i, 0) * y[0] + X(i, 1) * y[1] + X(i, 2) * y[2];
-        XTy[i] = X(0, i) * y[0] + X(1, i) * y[1] + X(2, i) * y[2];
-    }
-    const Lanes yXy = y[0] * Xy[0] + y[1] * Xy[1] + y[2] * Xy[2];
-    for (int k = 0; k < 3; ++k) out[k] = F.F2 * (Xy[k] + XTy[k] + tr * y[k]) + F.F3 * yXy * y[k];
-}
-
-/// (D⁴ρ : X)_jk for a 3×3 X (as contract4 in barnes_hut_gpis.cpp).
-GPISVDB_LANES_INLINE void contract4(const LaneKernel& F, const LaneVec3& y, const Mat3d& X, Lanes out[3][3]) {
-    const double tr = X.trace();
-    const Mat3d Xs = X + X.transpose();
-    Lanes z[3];
-    for (int i = 0; i < 3; ++i) z[i] = Xs(i, 0) * y[0] + Xs(i, 1) * y[1] + Xs(i, 2) * y[2];
-    const Lanes yXy = 0.5 * (y[0] * z[0] + y[1] * z[1] + y[2] * z[2]);
-    for (int j = 0; j < 3; ++j)
-        for (int k = 0; k < 3; ++k) {
-            out[j][k] = F.F2 * Xs(j, k) + F.F3 * (z[j] * y[k] + y[j] * z[k] + tr * y[j] * y[k]) + F.F4 * yXy * y[j] * y[k];
-            if (j == k) out[j][k] += F.F2 * tr + F.F3 * yXy;
-        }
-}
-
-/// Q_m = J(y, e_m) = [D²ρ e_m; D³ρ·e_m] (4×3), for m = 0, 1, 2.
-GPISVDB_LANES_INLINE void qMatrices(const LaneKernel& F, const LaneVec3& y, const Lanes D2[3][3], Lanes Q[3][4][3]) {
-    for (int m = 0; m < 3; ++m) {
-        for (int j = 0; j < 3; ++j) Q[m][0][j] = D2[j][m];
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) {
-                Lanes v = F.F3 * y[m] * y[i] * y[j];
-                if (j == m) v += F.F2 * y[i];
-                if (i == m) v += F.F2 * y[j];
-                if (i == j) v += F.F2 * y[m];
-                Q[m][1 + i][j] = v;
-            }
-    }
-}
 
 /// The mean's second-order far field of one node (addFarMean), times `on`.
 GPISVDB_LANES_INLINE void farMean(const BarnesHutGpis::MeanMoments& mm, const LaneVec3& y, const LaneKernel& F, const Lanes& on, LaneSums& s) {
@@ -234,95 +206,135 @@ GPISVDB_LANES_INLINE void farMean(const BarnesHutGpis::MeanMoments& mm, const La
     }
 }
 
-/// The covariance's first-order far field of one node (addFarCovariance), times `on`.
-GPISVDB_LANES_INLINE void farCovariance(const BarnesHutGpis::CovarianceMoments& cm, const LaneVec3& y, const LaneKernel& F, const Lanes& on,
-                   LaneSums& s) {
-    Lanes D2[3][3], Q[3][4][3];
-    hessian(F, y, D2);
-    qMatrices(F, y, D2, Q);
-    // === Position noise: S = Σ_m Q_m (½ Σ_n W_mn Q_n − R_m)ᵀ, R_m = [D³ρ : B_m ; D⁴ρ : B_m]
-    Lanes S[4][4];
-    for (auto& row : S)
-        for (auto& v : row) v = splat(0);
-    for (int m = 0; m < 3; ++m) {
-        Lanes A[4][3];  // ½ W Q − R
-        contract3(F, y, cm.posB[m], A[0]);
-        Lanes R4[3][3];
-        contract4(F, y, cm.posB[m], R4);
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) A[1 + i][j] = R4[i][j];
-        for (int a = 0; a < 4; ++a)
-            for (int j = 0; j < 3; ++j) {
-                const Lanes wq = cm.posW(m, 0) * Q[0][a][j] + cm.posW(m, 1) * Q[1][a][j] + cm.posW(m, 2) * Q[2][a][j];
-                A[a][j] = 0.5 * wq - A[a][j];
-            }
-        for (int a = 0; a < 4; ++a)
-            for (int b = 0; b < 4; ++b) S[a][b] += Q[m][a][0] * A[b][0] + Q[m][a][1] * A[b][1] + Q[m][a][2] * A[b][2];
+/// The covariance's first-order far field of one node (addFarCovariance), times `on`, in closed form
+/// (docs/model.md#packets). Both noise terms have the shape E(y; M) = coefficients(F, t) × {τ = tr M, m = yᵀMy,
+/// v = My, M, y, δ}: position noise with M = W = Σ σ² w wᵀ, normal noise with M = Σ Σ'. The first order is
+/// −Σ_l ∂_l E(y; M_l) with M_l = B_l = Σ σ² δ_l w wᵀ (resp. C_l = Σ δ_l Σ'); ∂_l acts on y and on F_k (∂_l F_k =
+/// F_{k+1} y_l), and contracts over l into T1 = y·τ_l, T2 = y·m_l, T3 = u·y (u_j = Σ_l (M_l)_jl), Σ_l y_l M_l and
+/// Σ_l y_l M_l y. About 350 lane operations instead of the ≈ 1 400 of forming Q_m, K and their products.
+GPISVDB_LANES_INLINE void farCovariance(const BarnesHutGpis::CovarianceMoments& cm, const LaneVec3& y, const Lanes& t,
+                                        const LaneKernel& F, const Lanes& on, LaneSums& s) {
+    // Every term is quadratic in (F1…F4): masking them masks the terms.
+    const Lanes a = on * F.F1, b = on * F.F2, c = on * F.F3, d = on * F.F4;
+    // === The node's constants: B_l(m,n) = posB[n](l,m), C_l = nrmC[l]
+    double B[3][3][3], C[3][3][3], tauB[3], uB[3], uC[3];  // (the normal noise's τ has a zero coefficient)
+    for (int l = 0; l < 3; ++l)
+        for (int m = 0; m < 3; ++m)
+            for (int n = 0; n < 3; ++n) B[l][m][n] = cm.posB[n](l, m), C[l][m][n] = cm.nrmC[l](m, n);
+    for (int l = 0; l < 3; ++l) {
+        tauB[l] = B[l][0][0] + B[l][1][1] + B[l][2][2];
+        uB[l] = B[0][l][0] + B[1][l][1] + B[2][l][2];
+        uC[l] = C[0][l][0] + C[1][l][1] + C[2][l][2];
     }
-    // === Normal noise: U = V Kᵀ, V = ½ K Σ' − Σ_l Q_l C_l, K = [∇ρᵀ; D²ρ]
-    Lanes K[4][3];
-    for (int j = 0; j < 3; ++j) K[0][j] = F.F1 * y[j];
+    const double tauW = cm.posW.trace();
+    // === Per lane: v = My and m = yᵀMy for W, Σ Σ', every B_l and C_l; their contractions over l
+    auto times = [&](const double (&M)[3][3], Lanes (&v)[3]) {
+        for (int i = 0; i < 3; ++i) v[i] = M[i][0] * y[0] + M[i][1] * y[1] + M[i][2] * y[2];
+        return Lanes(y[0] * v[0] + y[1] * v[1] + y[2] * v[2]);
+    };
+    double Wm[3][3], Sm[3][3];
     for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) K[1 + i][j] = D2[i][j];
-    for (int a = 0; a < 4; ++a) {
-        Lanes V[3];
-        for (int k = 0; k < 3; ++k) {
-            Lanes v = 0.5 * (K[a][0] * cm.nrmS(0, k) + K[a][1] * cm.nrmS(1, k) + K[a][2] * cm.nrmS(2, k));
-            for (int l = 0; l < 3; ++l)
-                v -= Q[l][a][0] * cm.nrmC[l](0, k) + Q[l][a][1] * cm.nrmC[l](1, k) + Q[l][a][2] * cm.nrmC[l](2, k);
-            V[k] = v;
+        for (int j = 0; j < 3; ++j) Wm[i][j] = cm.posW(i, j), Sm[i][j] = cm.nrmS(i, j);
+    Lanes vW[3], vS[3], vB[3][3], vC[3][3], mB[3], mC[3];
+    const Lanes mW = times(Wm, vW), mS = times(Sm, vS);
+    for (int l = 0; l < 3; ++l) mB[l] = times(B[l], vB[l]), mC[l] = times(C[l], vC[l]);
+    const Lanes T1B = y[0] * tauB[0] + y[1] * tauB[1] + y[2] * tauB[2];
+    const Lanes T2B = y[0] * mB[0] + y[1] * mB[1] + y[2] * mB[2], T2C = y[0] * mC[0] + y[1] * mC[1] + y[2] * mC[2];
+    const Lanes T3B = y[0] * uB[0] + y[1] * uB[1] + y[2] * uB[2], T3C = y[0] * uC[0] + y[1] * uC[1] + y[2] * uC[2];
+    Lanes VyB[3], VyC[3];  // Σ_l y_l M_l y
+    for (int i = 0; i < 3; ++i)
+        VyB[i] = y[0] * vB[0][i] + y[1] * vB[1][i] + y[2] * vB[2][i], VyC[i] = y[0] * vC[0][i] + y[1] * vC[1][i] + y[2] * vC[2][i];
+    // === Coefficients of E (pos: position noise, nrm: normal noise) and of their derivatives ∂/∂t·2
+    const Lanes aa = a * a, ab = a * b, bb = b * b, ac = a * c, bc = b * c, bt = b * t, ct = c * t, dt = d * t;
+    const Lanes alpha2 = 2.0 * ab + bb * t;           // pos (0,0) · m
+    const Lanes beta2 = 2.0 * bb + c * (a + bt);      // pos (0,i) · m y_i
+    const Lanes beta3 = b * (2.0 * a + bt);           // pos (0,i) · v_i
+    const Lanes gamma2 = c * (4.0 * b + ct);          // pos (i,j) · m y_i y_j
+    const Lanes gamma3 = b * (3.0 * b + ct);          // pos (i,j) · (y_i v_j + v_i y_j)
+    const Lanes dA2 = 4.0 * bb + 2.0 * ac + 2.0 * b * ct;  // = d beta3
+    const Lanes dB1 = bb + ac;                        // = d(ab)
+    const Lanes dB2 = 7.0 * bc + a * d + c * ct + b * dt;
+    const Lanes dG1 = 2.0 * bc;                       // = d(b²)
+    const Lanes dG2 = 6.0 * c * c + 4.0 * b * d + 2.0 * c * dt;
+    const Lanes dG3 = 8.0 * bc + c * ct + b * dt;
+    const Lanes dG4 = 2.0 * b * ct + 2.0 * bb;        // = d(b² t)
+    // === Row 0
+    s.cov[0][0] += aa * tauW + alpha2 * mW + aa * mS -
+                   (2.0 * ab * T1B + dA2 * T2B + 2.0 * alpha2 * T3B + 2.0 * ab * T2C + 2.0 * aa * T3C);
+    const Lanes cy = ab * tauW + beta2 * mW + ab * mS - (dB1 * T1B + dB2 * T2B + 2.0 * beta2 * T3B + dB1 * T2C + 2.0 * ab * T3C);
+    for (int i = 0; i < 3; ++i)
+        s.cov[0][1 + i] += cy * y[i] + beta3 * vW[i] + aa * vS[i] -
+                           (ab * tauB[i] + beta2 * mB[i] + dA2 * VyB[i] + beta3 * uB[i] + ab * mC[i] + 2.0 * ab * VyC[i] + aa * uC[i]);
+    // === Gradient block: cYY y_i y_j + (y_i R_j + R_i y_j) + matrix terms + δ_ij cD
+    const Lanes cYY = bb * tauW + gamma2 * mW + bb * mS - (dG1 * T1B + dG2 * T2B + 2.0 * gamma2 * T3B + dG1 * T2C + 2.0 * bb * T3C);
+    Lanes R[3];
+    for (int i = 0; i < 3; ++i)
+        R[i] = gamma3 * vW[i] + ab * vS[i] -
+               (bb * tauB[i] + gamma2 * mB[i] + bb * mC[i] + dG3 * VyB[i] + gamma3 * uB[i] + dB1 * VyC[i] + ab * uC[i]);
+    const Lanes cD = bb * mW - (dG1 * T2B + 2.0 * bb * T3B);
+    const Lanes btt = bb * t, ab2 = 2.0 * ab;
+    for (int i = 0; i < 3; ++i)
+        for (int j = i; j < 3; ++j) {
+            Lanes myB = y[0] * B[0][i][j] + y[1] * B[1][i][j] + y[2] * B[2][i][j];
+            Lanes myC = y[0] * C[0][i][j] + y[1] * C[1][i][j] + y[2] * C[2][i][j];
+            Lanes v = cYY * y[i] * y[j] + y[i] * R[j] + R[i] * y[j] + btt * Wm[i][j] + aa * Sm[i][j] -
+                      gamma3 * (vB[i][j] + vB[j][i]) - ab * (vC[i][j] + vC[j][i]) - dG4 * myB - ab2 * myC;
+            if (i == j) v += cD;
+            s.cov[1 + i][1 + j] += v;
         }
-        for (int b = 0; b < 4; ++b) S[a][b] += V[0] * K[b][0] + V[1] * K[b][1] + V[2] * K[b][2];
-    }
-    for (int a = 0; a < 4; ++a)
-        for (int b = a; b < 4; ++b) s.cov[a][b] += on * (S[a][b] + S[b][a]);
 }
 
 /// One sample's exact share (addMean, addPositionNoise, addNormalNoise); `mean`/`cov` select the lanes that want it.
-GPISVDB_LANES_INLINE void sample(const Vec3d& w, double var, const Sym3& N, const LaneVec3& y, const LaneKernel& F, const Lanes& mean,
-            const Lanes& cov, bool anyMean, bool anyCov, LaneSums& s) {
-    const Lanes yw = dot(y, w);
-    if (anyMean) {
-        s.mean[0] += mean * (F.F1 * yw);
-        for (int k = 0; k < 3; ++k) s.mean[1 + k] += mean * (F.F1 * w[k] + F.F2 * yw * y[k]);
+/// The 4×4 covariance is written out in closed form (docs/model.md#packets): with p = y·w, q = Σ'y, Q = y·q,
+///   var·J Jᵀ + K Σ' Kᵀ = coefficients (scalars per lane) times y, w, q and Σ' entries,
+/// about 150 lane operations instead of the ≈ 340 of forming J and K and multiplying them out.
+GPISVDB_LANES_INLINE void sample(const Vec3d& w, double var, const Sym3& N, const LaneVec3& y, const Lanes& t, const LaneKernel& F,
+                                 const Lanes& mean, const Lanes& cov, bool anyMean, bool anyCov, LaneSums& s) {
+    const Lanes p = dot(y, w);
+    if (anyMean) {  // (∇ρ·w, D²ρ w) = (F1 p, F1 w + F2 p y)
+        const Lanes a = mean * F.F1, bp = mean * F.F2 * p;
+        s.mean[0] += a * p;
+        for (int k = 0; k < 3; ++k) s.mean[1 + k] += a * w[k] + bp * y[k];
     }
     if (!anyCov) return;
-    // Position noise: var · J Jᵀ, J = [(D²ρ w)ᵀ; D³ρ·w].
-    Lanes J[4][3];
-    for (int j = 0; j < 3; ++j) J[0][j] = F.F1 * w[j] + F.F2 * yw * y[j];
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-            Lanes v = F.F2 * (y[i] * w[j] + w[i] * y[j]) + F.F3 * yw * y[i] * y[j];
-            if (i == j) v += F.F2 * yw;
-            J[1 + i][j] = v;
-        }
-    // Normal noise: K Σ' Kᵀ, K = [∇ρᵀ; D²ρ].
-    Lanes K[4][3];
-    for (int j = 0; j < 3; ++j) K[0][j] = F.F1 * y[j];
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-            K[1 + i][j] = F.F2 * y[i] * y[j];
-            if (i == j) K[1 + i][j] += F.F1;
-        }
+    // Every covariance term is quadratic in (F1, F2, F3): masking them masks the terms.
+    const Lanes a = cov * F.F1, b = cov * F.F2, c = cov * F.F3;
     const double Sm[3][3] = {{N.xx, N.xy, N.xz}, {N.xy, N.yy, N.yz}, {N.xz, N.yz, N.zz}};
-    Lanes KS[4][3];
-    for (int a = 0; a < 4; ++a)
-        for (int k = 0; k < 3; ++k) KS[a][k] = K[a][0] * Sm[0][k] + K[a][1] * Sm[1][k] + K[a][2] * Sm[2][k];
-    for (int a = 0; a < 4; ++a)
-        for (int b = a; b < 4; ++b) {
-            const Lanes jj = J[a][0] * J[b][0] + J[a][1] * J[b][1] + J[a][2] * J[b][2];
-            const Lanes kk = KS[a][0] * K[b][0] + KS[a][1] * K[b][1] + KS[a][2] * K[b][2];
-            s.cov[a][b] += cov * (var * jj + kk);
+    Lanes q[3];
+    for (int i = 0; i < 3; ++i) q[i] = Sm[i][0] * y[0] + Sm[i][1] * y[1] + Sm[i][2] * y[2];
+    const Lanes Q = y[0] * q[0] + y[1] * q[1] + y[2] * q[2];
+    const double ww = w.squaredNorm();
+    const Lanes p2 = p * p, aa = a * a, ab = a * b, bb = b * b, bt = b * t, vbp = var * b * p;
+    // === Row 0: (0,0) = var (a² ww + p² (2ab + b² t)) + a² Q; (0,i) = αy y_i + αw w_i + a² q_i
+    s.cov[0][0] += var * (aa * ww + p2 * (2.0 * ab + bb * t)) + aa * Q;
+    const Lanes alphaY = var * (ab * ww + p2 * (2.0 * bb + c * (a + bt))) + ab * Q;
+    const Lanes alphaW = vbp * (2.0 * a + bt);
+    for (int i = 0; i < 3; ++i) s.cov[0][1 + i] += alphaY * y[i] + alphaW * w[i] + aa * q[i];
+    // === Gradient block: (i,j) = βyy y_i y_j + βyw (y_i w_j + w_i y_j) + βww w_i w_j + ab (y_i q_j + q_i y_j)
+    //                              + a² Σ'_ij + δ_ij var b² p²
+    const Lanes betaYY = var * (bb * ww + p2 * c * (4.0 * b + c * t)) + bb * Q;
+    const Lanes betaYW = vbp * (3.0 * b + c * t);
+    const Lanes betaWW = var * bb * t;
+    const Lanes betaD = var * bb * p2;
+    for (int i = 0; i < 3; ++i) {
+        const Lanes A = betaYY * y[i] + betaYW * w[i] + ab * q[i];
+        const Lanes B = betaYW * y[i] + betaWW * w[i];
+        const Lanes C = ab * y[i];
+        for (int j = i; j < 3; ++j) {
+            Lanes v = A * y[j] + B * w[j] + C * q[j] + aa * Sm[i][j];
+            if (i == j) v += betaD;
+            s.cov[1 + i][1 + j] += v;
         }
+    }
 }
 
 }  // namespace
 
 // One clone of the traversal per instruction set, chosen once at load time (GCC function multi-versioning):
-// the same binary runs everywhere and uses AVX-512 or AVX2 where the CPU has them. The lanes' own arithmetic is the
-// same IEEE operations in every clone (no FMA contraction: the file is built with -ffp-contract=off); erf and exp
-// come from libmvec's variant for the CPU, which may differ from another's in the last bit (as libm's scalar exp
-// already does between CPUs with and without FMA).
+// the same binary runs everywhere and uses AVX-512 or AVX2 where the CPU has them. The AVX-512 and AVX2 clones
+// contract multiply-adds into FMA (≈ 9 % faster) and erf and exp come from libmvec's variant for the CPU, so results
+// may differ between CPUs in the last bits (as libm's scalar exp already does between CPUs with and without FMA);
+// on one CPU they never depend on the thread count.
 #ifdef GPISVDB_PACKET_CLONES
 // defined by the build (empty: one clone, for comparisons)
 #elif defined(__SANITIZE_THREAD__)
@@ -387,7 +399,7 @@ void PacketTraversal::run(const BarnesHutGpis& bh, const double (*xs)[kLanes], d
         if (farMeanLanes | farCovLanes) {
             const LaneKernel F = kernelAt(kernel_, d2);
             if (farMeanLanes) farMean(meanMoments_[e.node], y, F, select(farMeanLanes), sums);
-            if (farCovLanes) farCovariance(covMoments_[e.node], y, F, select(farCovLanes), sums);
+            if (farCovLanes) farCovariance(covMoments_[e.node], y, d2, F, select(farCovLanes), sums);
             e.doneMean |= farMeanLanes;
             e.doneCov |= farCovLanes;
         }
@@ -398,8 +410,9 @@ void PacketTraversal::run(const BarnesHutGpis& bh, const double (*xs)[kLanes], d
             for (std::uint32_t i = node.begin; i < node.end; ++i) {
                 LaneVec3 yi;
                 for (int d = 0; d < 3; ++d) yi[d] = x[d] - samples_.position[i][d];
-                const LaneKernel F = kernelAt(kernel_, yi[0] * yi[0] + yi[1] * yi[1] + yi[2] * yi[2]);
-                sample(samples_.normal[i], samples_.positionVariance[i], samples_.normalCovariance[i], yi, F, onMean, onCov,
+                const Lanes ti = yi[0] * yi[0] + yi[1] * yi[1] + yi[2] * yi[2];
+                const LaneKernel F = kernelAt(kernel_, ti);
+                sample(samples_.normal[i], samples_.positionVariance[i], samples_.normalCovariance[i], yi, ti, F, onMean, onCov,
                        wantMean != 0, wantCov != 0, sums);
             }
             continue;

@@ -8,7 +8,7 @@ namespace gpisvdb {
 
 namespace {
 constexpr double kSwitchAR = 2.0;  // series below a·r = 2: terms (a²t)^m/m! stay ≤ 4^m/m!, no cancellation
-constexpr int kSeriesTerms = 34;   // 4^34/34! < 1e-18: below double rounding
+constexpr int kSeriesTerms = RegularizedKernel::kSeriesTerms;
 constexpr double kFarAR = 8.0;     // beyond a·r = 8, erf = 1 and exp(−a²r²)·(ar)^8 < 1e-20: pure Newton terms
 
 struct SeriesTable {

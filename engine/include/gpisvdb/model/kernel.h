@@ -33,6 +33,8 @@ public:
     /// a = 1/(√2 s) and c = 2a/√π of the closed forms.
     double erfScale() const { return a_; }
     double gaussianFactor() const { return c_; }
+    /// Terms of the power series below seriesDistance2(): G^(k)(t) = c Σ_{m < kSeriesTerms} (−a² t)^m / (m! (2m+2k+1)).
+    static constexpr int kSeriesTerms = 34;  // 4^34/34! < 1e-18: below double rounding at a·r = 2
 
     /// D²ρ at y.
     static Mat3d hessian(const RadialDerivatives& F, const Vec3d& y);
