@@ -114,6 +114,32 @@ TEST_CASE("band: identical voxels and values for 1 and 2 threads", "[band]") {
     requireSame(one.band, two.band);
 }
 
+TEST_CASE("band: evaluated in batches of any size, BFS and scan build the same band to the bit", "[band]") {
+    const Fixture f = bunny(1.0);
+    BandOptions o;
+    o.voxelSize = 0.3;
+    const BandResult whole = buildBand(*f.model, f.samples, o);
+    REQUIRE(whole.band.size() > 2000);
+    for (std::size_t batch : {1000, 4097}) {
+        o.batchVoxels = batch;
+        for (const BandResult& r : {buildBand(*f.model, f.samples, o), scanBand(*f.model, f.samples, o)}) {
+            const Band& a = whole.band;
+            const Band& b = r.band;
+            requireSame(a, b);
+            for (std::size_t i = 0; i < a.size(); ++i) {
+                REQUIRE(a.stddev[i] == b.stddev[i]);
+                REQUIRE(a.normal[i] == b.normal[i]);
+                REQUIRE(a.stencil[i].weight == b.stencil[i].weight);
+                REQUIRE(a.stencil[i].offset == b.stencil[i].offset);
+            }
+            CHECK(r.stats.regularised == whole.stats.regularised);
+            CHECK(r.stats.maxStencilL1 == whole.stats.maxStencilL1);
+        }
+    }
+    o.batchVoxels = 0;
+    CHECK_THROWS_AS(buildBand(*f.model, f.samples, o), ParameterError);
+}
+
 TEST_CASE("band: channels hold Kac-Rice at the voxel centres, the index tree maps back, stencils rebuild T, bytes per voxel count the containers", "[band]") {
     const Fixture f = bunny(1.0);
     BandOptions o;
@@ -329,22 +355,31 @@ TEST_CASE("band: the default band is buildBand with u and the voxel budget resol
     const DefaultBand b = buildDefaultBand(*m.model, m.input.samples, o);
     CHECK(b.options.iso == 0.5);  // the winding model's own level
     CHECK(b.options.voxelSize == 0.4);
-    CHECK(b.options.maxVoxels == std::size_t(b.maxMemory / kBuildBytesPerVoxel));
+    // The backstop on evaluated voxels: above what this band needed, below what the limit could hold as found voxels.
+    CHECK(b.options.maxVoxels > b.result.stats.evaluated);
+    CHECK(double(b.options.maxVoxels) <= kEvaluatedPerBandVoxel * b.maxMemory / kFoundBytesPerVoxel);
+    CHECK(b.estimate.voxels == Approx(double(b.result.band.size())).epsilon(0.25));
+    CHECK(b.estimate.memory.baselineBytes > 0);
     BandOptions direct = b.options;
     const BandResult same = buildBand(*m.model, m.input.samples, direct);
     CHECK(same.band.coord == b.result.band.coord);
     CHECK(same.band.mu == b.result.band.mu);
 
-    o.band.voxelSize = 0;  // the default h of the resolution rule
-    o.maxMemory = 1e6;     // far too little for it
+    o.band.voxelSize = 0.05;  // hundreds of MB
+    o.maxMemory = 30e6;       // far too little for it
+    const std::string fits = "use a voxel size (BandOptions::voxelSize) of ";
     try {
         buildDefaultBand(*m.model, m.input.samples, o);
         FAIL("no MemoryLimitError");
     } catch (const MemoryLimitError& e) {
         const std::string what = e.what();
         CHECK(what.find("DefaultBandOptions::maxMemory") != std::string::npos);
-        CHECK(what.find("use a voxel size (BandOptions::voxelSize) of") != std::string::npos);
+        REQUIRE(what.find(fits) != std::string::npos);
         CHECK(e.parameters() == std::vector<std::string>{"DefaultBandOptions::maxMemory", "BandOptions::voxelSize"});
+        // The voxel size it names fits: the band is built under the same limit.
+        o.band.voxelSize = std::stod(what.substr(what.find(fits) + fits.size()));
+        CHECK(o.band.voxelSize > 0.05);
+        CHECK_NOTHROW(buildDefaultBand(*m.model, m.input.samples, o));
     }
     o.maxMemory = 0;
     o.band.etaRelative = 0;

@@ -1,5 +1,6 @@
 #include <catch2/catch.hpp>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <random>
 
 #include "gpisvdb/core/errors.h"
@@ -195,6 +196,30 @@ TEST_CASE("model: a packet holds 1 to 8 points and refuses more", "[model]") {
     CHECK_THROWS_AS(bh.evaluatePacket(xs.data(), 9, out.data()), Error);
     CHECK_THROWS_AS(bh.evaluatePacket(xs.data(), 0, out.data()), Error);
     CHECK(bh.evaluate(std::vector<Vec3d>{}).empty());
+}
+
+TEST_CASE("model: a point's batch result does not depend on the other points of its batch, to the bit", "[model]") {
+    // Near and far points: packets mix lanes in the series, closed-form and pure-Newton regimes of the kernel.
+    const Samples s = makeSamples(readInput(test::dataPath("bunny.obj")), {0.5}).samples;
+    const BarnesHutGpis bh(s, 0.4 * s.lengthScale);
+    const std::vector<Vec3d> xs = nearAndFar(s, 300, 17);
+    const std::vector<ValueGradient> whole = bh.evaluate(xs);
+    std::mt19937_64 rng(3);
+    for (std::size_t batch : {1, 3, 8, 37}) {
+        std::vector<std::size_t> order(xs.size());
+        for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+        std::shuffle(order.begin(), order.end(), rng);
+        for (std::size_t b = 0; b < order.size(); b += batch) {
+            std::vector<Vec3d> part;
+            for (std::size_t k = b; k < std::min(order.size(), b + batch); ++k) part.push_back(xs[order[k]]);
+            const std::vector<ValueGradient> got = bh.evaluate(part);
+            for (std::size_t k = 0; k < part.size(); ++k) {
+                const ValueGradient& ref = whole[order[b + k]];
+                REQUIRE(got[k].mean == ref.mean);
+                REQUIRE(got[k].cov == ref.cov);
+            }
+        }
+    }
 }
 
 TEST_CASE("model: batch results do not depend on the thread count", "[model]") {

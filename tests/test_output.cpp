@@ -3,6 +3,7 @@
 
 #include <catch2/catch.hpp>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/SparseCore>
@@ -247,4 +248,63 @@ TEST_CASE("output: writeVdb refuses active inf or NaN values, and values a half 
     gpisvdb::writeVdb({make(1e5f), makeVec(2.0f)}, path, {});
     CHECK(std::filesystem::exists(path));
     gpisvdb::writeVdb({make(6e4f)}, path, {}, half);
+}
+
+TEST_CASE("output: writeBandVdb streams the grids of bandGrids and sellingGrids one at a time, and a refused grid leaves the old file", "[output]") {
+    const Band band = test::sphereBand();
+    std::vector<float> scalar(band.size()), vec(3 * band.size());
+    for (std::size_t i = 0; i < band.size(); ++i) {
+        scalar[i] = i % 7 == 0 ? std::numeric_limits<float>::infinity() : float(i);  // non-finite: left inactive
+        for (int d = 0; d < 3; ++d) vec[3 * i + std::size_t(d)] = float(d) - 0.5f * float(i);
+    }
+    const std::vector<NamedChannel> extra{{"distance", &scalar, -1.0f}};
+    const std::vector<NamedVectorChannel> vectors{{"flow", &vec, openvdb::VEC_CONTRAVARIANT_RELATIVE}};
+    openvdb::MetaMap meta;
+    meta.insertMeta("sigma_rel", openvdb::DoubleMetadata(0.5));
+    VdbWriteOptions options;
+    options.sellingStencils = true;
+    const std::filesystem::path dir = test::scratchDir() / "streamed";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string path = (dir / "band.vdb").string();
+    writeBandVdb(band, path, meta, extra, vectors, options);
+
+    // === Every grid the all-at-once path makes is in the file, with the same type, classes and active values
+    openvdb::GridPtrVec expected = bandGrids(band, extra, vectors);
+    const openvdb::GridPtrVec selling = sellingGrids(band);
+    expected.insert(expected.end(), selling.begin(), selling.end());
+    openvdb::io::File file(path);
+    file.open();
+    CHECK(file.readAllGridMetadata()->size() == expected.size());
+    CHECK(file.getMetadata()->metaValue<double>("sigma_rel") == 0.5);
+    for (const auto& want : expected) {
+        INFO(want->getName());
+        const openvdb::GridBase::Ptr got = file.readGrid(want->getName());
+        REQUIRE(got->type() == want->type());
+        CHECK(got->getGridClass() == want->getGridClass());
+        CHECK(got->getVectorType() == want->getVectorType());
+        CHECK(got->activeVoxelCount() == want->activeVoxelCount());
+        CHECK(got->transform() == want->transform());
+        if (auto f = openvdb::GridBase::grid<openvdb::FloatGrid>(got)) {
+            auto w = openvdb::GridBase::grid<openvdb::FloatGrid>(want)->getConstAccessor();
+            for (auto it = f->cbeginValueOn(); it; ++it) REQUIRE(*it == w.getValue(it.getCoord()));
+            CHECK(f->background() == openvdb::GridBase::grid<openvdb::FloatGrid>(want)->background());
+        } else {
+            auto v = openvdb::GridBase::grid<openvdb::Vec3SGrid>(got);
+            REQUIRE(v);
+            auto w = openvdb::GridBase::grid<openvdb::Vec3SGrid>(want)->getConstAccessor();
+            for (auto it = v->cbeginValueOn(); it; ++it) REQUIRE(*it == w.getValue(it.getCoord()));
+        }
+    }
+    file.close();
+
+    // === A grid refused part-way (the last of the band's own grids): the previous file stays, nothing else is left
+    const auto before = std::filesystem::file_size(path);
+    Band bad = band;
+    bad.stencil[bad.size() / 2].weight[0] = std::numeric_limits<float>::quiet_NaN();
+    CHECK_THROWS_WITH(writeBandVdb(bad, path, meta, extra, vectors, options), Catch::Contains("selling_weight_0"));
+    CHECK(std::filesystem::file_size(path) == before);
+    std::size_t files = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();
+    CHECK(files == 1);
 }

@@ -76,6 +76,7 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     job.resolution = built.resolution;
     job.options = built.options;
     job.maxMemory = built.maxMemory;
+    job.estimate = built.estimate;
     job.result = std::move(built.result);
     job.warnings = bandWarnings(job, flags);
     if (!flags.model.quiet)
@@ -237,11 +238,14 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
                   {"bbox_min", {bb.min().x(), bb.min().y(), bb.min().z()}}, {"mass", band.mass()},
                   {"max_stencil_l1", st.maxStencilL1}, {"max_stencil_l1_at_samples", job.resolution.maxStencilL1},
                   {"evaluated_voxels", st.evaluated}, {"bfs_levels", st.levels},
+                  {"estimated_voxels", job.estimate.voxels}, {"estimated_evaluated_voxels", job.estimate.evaluated},
                   {"regularised_voxels", st.regularised}, {"median_mu_at_samples", st.medianSampleMu},
                   {"stage_seconds", {{"model", st.modelSeconds}, {"kac_rice", st.kacRiceSeconds},
                                      {"search", st.searchSeconds}, {"finish", st.finishSeconds}}}}},
         {"warnings", job.warnings},
-        {"memory", {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0}, {"band_bytes_per_voxel", band.bytesPerVoxel()}}},
+        {"memory", {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0}, {"band_bytes_per_voxel", band.bytesPerVoxel()},
+                    {"estimated_peak_bytes", job.estimate.memory.peakBytes()},
+                    {"estimate_baseline_bytes", job.estimate.memory.baselineBytes}}},
     };
 }
 

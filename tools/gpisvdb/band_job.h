@@ -32,6 +32,7 @@ struct BandJob {
     Resolution resolution;
     BandOptions options;  ///< as used (voxel size resolved)
     BandResult result;
+    BandEstimate estimate;  ///< size and memory estimated before the build
     double maxMemory = 0;
     double secondsModel = 0, secondsBand = 0;
     /// Settings that change the result beyond its documented error (docs/band.md#warnings): the report's

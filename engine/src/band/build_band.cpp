@@ -1,8 +1,10 @@
 #include "gpisvdb/band/build_band.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <tbb/parallel_for.h>
 
 #include "gpisvdb/core/errors.h"
@@ -22,6 +24,7 @@ void checkOptions(const BandOptions& o) {
     if (!(o.maxAnisotropy >= 1))
         throw ParameterError("the anisotropy cap (BandOptions::maxAnisotropy) must be >= 1", {"BandOptions::maxAnisotropy"});
     if (!std::isfinite(o.iso)) throw ParameterError("the iso-value (BandOptions::iso) must be finite", {"BandOptions::iso"});
+    if (o.batchVoxels < 1) throw ParameterError("the batch size (BandOptions::batchVoxels) must be >= 1", {"BandOptions::batchVoxels"});
 }
 
 Coord voxelOf(const Vec3d& p, double h) {
@@ -36,26 +39,163 @@ Coord voxelOf(const Vec3d& p, double h) {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-/// Evaluates the GPIS and Kac–Rice at voxel centres h·c, in parallel.
-std::vector<BandVoxel> evaluateVoxels(const GpisModel& model, const std::vector<Coord>& coords, double h, double iso,
-                                      const QmcRule& rule, const Progress& progress, BandStats& stats) {
+/// Evaluates the GPIS and Kac–Rice at voxel centres h·c for coords[begin, end), in parallel.
+std::vector<BandVoxel> evaluateVoxels(const GpisModel& model, const std::vector<Coord>& coords, std::size_t begin,
+                                      std::size_t end, double h, double iso, const QmcRule& rule,
+                                      const Progress& progress, BandStats& stats) {
     auto t = Clock::now();
-    std::vector<Vec3d> xs(coords.size());
-    for (std::size_t i = 0; i < coords.size(); ++i) xs[i] = h * Vec3d(coords[i].x(), coords[i].y(), coords[i].z());
+    const std::size_t n = end - begin;
+    std::vector<Vec3d> xs(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Coord& c = coords[begin + i];
+        xs[i] = h * Vec3d(c.x(), c.y(), c.z());
+    }
     const std::vector<ValueGradient> z = model.evaluate(xs, progress);
     stats.modelSeconds += since(t);
     t = Clock::now();
-    std::vector<BandVoxel> out(coords.size());
-    tbb::parallel_for(std::size_t(0), coords.size(), [&](std::size_t i) {
+    std::vector<BandVoxel> out(n);
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
         progress.checkInterruptAt(i);
         const SurfaceDensity d = kacRice(z[i], iso, rule);
         const double g = d.meanGradient.norm();
-        out[i] = {coords[i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
+        out[i] = {coords[begin + i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
                   g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero()};
     });
     stats.kacRiceSeconds += since(t);
     return out;
 }
+
+/// A voxel's Selling stencil of T regularised to anisotropy ≤ maxAnisotropy (docs/math.md#resolution).
+VoxelStencil stencilOf(const Mat3d& T, double maxAnisotropy, bool& regularised) {
+    const Selling3 s = selling(regularise(T, maxAnisotropy, regularised));
+    VoxelStencil st;
+    st.count = std::uint8_t(s.count);
+    st.width = std::uint8_t(std::min(255, s.width()));
+    for (int k = 0; k < s.count; ++k) {
+        st.weight[std::size_t(k)] = float(s.weight[std::size_t(k)]);
+        for (int d = 0; d < 3; ++d) {
+            const int e = s.offset[std::size_t(k)][d];
+            if (e < -127 || e > 127) throw Error("Selling offset beyond ±127 despite regularisation");
+            st.offset[std::size_t(k)][std::size_t(d)] = std::int8_t(e);
+        }
+    }
+    return st;
+}
+
+/// The band's voxels in the order they were found, already in the band's storage (float channels, the stencil), in
+/// blocks of fixed size so that growing never copies. assemble() turns them into the Band channel by channel, each
+/// channel's blocks freed as soon as it is gathered: the peak is the found voxels plus one channel, not two copies.
+class FoundVoxels {
+public:
+    explicit FoundVoxels(double maxAnisotropy) : maxAnisotropy_(maxAnisotropy) {}
+
+    /// Appends voxels[keep[k]] for every k, in order; their stencils are computed in parallel.
+    void append(const std::vector<BandVoxel>& voxels, const std::vector<std::uint32_t>& keep) {
+        std::vector<VoxelStencil> stencils(keep.size());
+        std::vector<std::uint8_t> regularised(keep.size(), 0);
+        tbb::parallel_for(std::size_t(0), keep.size(), [&](std::size_t k) {
+            bool changed = false;
+            stencils[k] = stencilOf(voxels[keep[k]].T, maxAnisotropy_, changed);
+            regularised[k] = changed;
+        });
+        for (std::size_t k = 0; k < keep.size(); ++k) {
+            if (size_ % kBlock == 0) blocks_.emplace_back();
+            Block& b = blocks_.back();
+            const BandVoxel& v = voxels[keep[k]];
+            b.coord.push_back(v.coord);
+            b.mu.push_back(float(v.mu));
+            const Mat3d& T = v.T;
+            b.T.push_back({float(T(0, 0)), float(T(1, 1)), float(T(2, 2)), float(T(0, 1)), float(T(0, 2)), float(T(1, 2))});
+            b.mean.push_back(float(v.mean));
+            b.stddev.push_back(float(v.stddev));
+            b.normal.push_back(openvdb::Vec3f(float(v.normal.x()), float(v.normal.y()), float(v.normal.z())));
+            b.stencil.push_back(stencils[k]);
+            regularised_ += regularised[k];
+            maxStencilL1_ = std::max(maxStencilL1_, int(stencils[k].width));
+            ++size_;
+        }
+    }
+
+    std::size_t size() const { return size_; }
+
+    /// The band: the index tree, its leaf order, then the channels gathered in that order.
+    BandResult assemble(double voxelSize, const Progress& progress) && {
+        BandResult r;
+        Band& b = r.band;
+        b.voxelSize = voxelSize;
+        b.index = openvdb::Int32Grid::create(-1);
+        try {
+            b.index->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
+        } catch (const openvdb::ArithmeticError&) {
+            // OpenVDB refuses linear transforms whose determinant h³ is within 1e-15 of zero (h ≲ 1e-5).
+            throw ParameterError("the voxel size (BandOptions::voxelSize) " + numberText(voxelSize) +
+                                     " is below what an OpenVDB transform can hold (about 1e-5 world units): rescale "
+                                     "the input to larger units (e.g. millimetres instead of metres)",
+                                 {"BandOptions::voxelSize"});
+        }
+        b.index->setName("index");
+        if (size_ >= std::size_t(INT32_MAX)) throw Error("a band holds fewer than 2^31 voxels");
+        {
+            auto acc = b.index->getAccessor();
+            for (std::size_t i = 0; i < size_; ++i) {
+                const Coord& c = blocks_[i >> kBlockBits].coord[i & (kBlock - 1)];
+                if (acc.isValueOn(c)) throw Error("bandFromVoxels: a voxel is listed twice");
+                acc.setValue(c, int(i));
+            }
+        }
+        progress.checkInterrupt();
+        // === Linear indices in leaf order (OpenVDB's value-on iteration order)
+        std::vector<std::uint32_t> source;
+        source.reserve(size_);
+        for (auto it = b.index->tree().beginValueOn(); it; ++it) {
+            source.push_back(std::uint32_t(*it));
+            it.setValue(int(source.size() - 1));
+        }
+        gather(source, b.coord, &Block::coord, progress);
+        gather(source, b.stencil, &Block::stencil, progress);
+        gather(source, b.T, &Block::T, progress);
+        gather(source, b.normal, &Block::normal, progress);
+        gather(source, b.mu, &Block::mu, progress);
+        gather(source, b.mean, &Block::mean, progress);
+        gather(source, b.stddev, &Block::stddev, progress);
+        blocks_.clear();
+        r.stats.regularised = regularised_;
+        r.stats.maxStencilL1 = maxStencilL1_;
+        return r;
+    }
+
+private:
+    static constexpr unsigned kBlockBits = 16;
+    static constexpr std::size_t kBlock = std::size_t(1) << kBlockBits;
+    struct Block {
+        std::vector<Coord> coord;
+        std::vector<float> mu, mean, stddev;
+        std::vector<std::array<float, 6>> T;
+        std::vector<openvdb::Vec3f> normal;
+        std::vector<VoxelStencil> stencil;
+        Block() {
+            coord.reserve(kBlock), mu.reserve(kBlock), mean.reserve(kBlock), stddev.reserve(kBlock);
+            T.reserve(kBlock), normal.reserve(kBlock), stencil.reserve(kBlock);
+        }
+    };
+
+    /// out[i] = the channel of found voxel source[i]; then that channel is freed in every block.
+    template <class V, class Member>
+    void gather(const std::vector<std::uint32_t>& source, std::vector<V>& out, Member member, const Progress& progress) {
+        out.resize(source.size());
+        tbb::parallel_for(std::size_t(0), source.size(), [&](std::size_t i) {
+            progress.checkInterruptAt(i, 65536);
+            out[i] = (blocks_[source[i] >> kBlockBits].*member)[source[i] & (kBlock - 1)];
+        });
+        for (Block& blk : blocks_) std::vector<V>().swap(blk.*member);
+    }
+
+    double maxAnisotropy_;
+    std::vector<Block> blocks_;
+    std::size_t size_ = 0;
+    std::size_t regularised_ = 0;
+    int maxStencilL1_ = 0;
+};
 
 /// η in absolute units: etaRelative × the median μ over the voxels holding samples.
 double absoluteEta(const std::vector<BandVoxel>& values, const std::vector<Coord>& sampleVoxels, double etaRel,
@@ -89,10 +229,10 @@ void checkBudget(std::size_t evaluated, const BandOptions& o, double h) {
                              {"BandOptions::maxVoxels", "BandOptions::voxelSize"});
 }
 
-BandResult finish(std::vector<BandVoxel>&& accepted, const BandOptions& o, const BandStats& stats, const Progress& progress) {
+BandResult finish(FoundVoxels&& found, const BandOptions& o, const BandStats& stats, const Progress& progress) {
     progress.checkInterrupt();
     const auto t = Clock::now();
-    BandResult r = bandFromVoxels(std::move(accepted), o.voxelSize, o.maxAnisotropy, progress.interruptOnly());
+    BandResult r = std::move(found).assemble(o.voxelSize, progress.interruptOnly());
     const BandStats own = r.stats;
     r.stats = stats;
     r.stats.finishSeconds = since(t);
@@ -115,7 +255,8 @@ const std::array<Coord, kNeighbours>& neighbourOffsets() {
     return n;
 }
 
-/// One round of either builder: evaluates a batch of voxels; the first round also fixes η.
+/// One round of either builder: evaluates a BFS level (or a scan box) in batches, keeps the voxels with μ > η
+/// (the first round also fixes η, so its voxels wait for it) and hands each kept voxel to `kept` in order.
 struct Rounds {
     const GpisModel& model;
     const BandOptions& options;
@@ -123,19 +264,48 @@ struct Rounds {
     const QmcRule rule;
     const std::vector<Coord> sampleVox;
     BandStats stats;
+    FoundVoxels found;
     double eta = 0;
 
     Rounds(const GpisModel& m, const Samples& samples, const BandOptions& o, const Progress& p)
-        : model(m), options(o), progress(p), rule(o.qmcSamples), sampleVox(sampleVoxels(samples, o.voxelSize)) {}
+        : model(m), options(o), progress(p), rule(o.qmcSamples), sampleVox(sampleVoxels(samples, o.voxelSize)),
+          found(o.maxAnisotropy) {}
 
-    std::vector<BandVoxel> evaluate(const std::vector<Coord>& coords) {
+    template <class Kept>
+    void round(const std::vector<Coord>& coords, Kept&& kept) {
         progress.checkInterrupt();
         stats.evaluated += coords.size();
         checkBudget(stats.evaluated, options, options.voxelSize);
-        std::vector<BandVoxel> values = evaluateVoxels(model, coords, options.voxelSize, options.iso, rule,
-                                                       progress.interruptOnly(), stats);
-        if (stats.levels++ == 0) eta = absoluteEta(values, sampleVox, options.etaRelative, stats);
-        return values;
+        const bool first = stats.levels++ == 0;
+        std::vector<BandVoxel> firstRound;
+        // In batches: a point's Gaussians do not depend on the other points of its batch (BarnesHutGpis::evaluate),
+        // so neither does the band; the batch bounds the transient memory whatever the size of a BFS level.
+        for (std::size_t begin = 0; begin < coords.size(); begin += options.batchVoxels) {
+            const std::size_t end = std::min(coords.size(), begin + options.batchVoxels);
+            std::vector<BandVoxel> values = evaluateVoxels(model, coords, begin, end, options.voxelSize, options.iso,
+                                                           rule, progress.interruptOnly(), stats);
+            if (first) {
+                firstRound.insert(firstRound.end(), values.begin(), values.end());
+                continue;
+            }
+            keep(values, kept);
+        }
+        if (first) {
+            eta = absoluteEta(firstRound, sampleVox, options.etaRelative, stats);
+            keep(firstRound, kept);
+        }
+    }
+
+private:
+    template <class Kept>
+    void keep(const std::vector<BandVoxel>& values, Kept& kept) {
+        std::vector<std::uint32_t> index;
+        for (std::size_t i = 0; i < values.size(); ++i)
+            if (values[i].mu > eta) index.push_back(std::uint32_t(i));
+        auto t = Clock::now();
+        found.append(values, index);
+        stats.kacRiceSeconds += since(t);  // the Selling stencils, with μ and T's other channels
+        for (std::uint32_t i : index) kept(values[i].coord);
     }
 };
 
@@ -146,74 +316,14 @@ BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, doubl
         throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0", {"BandOptions::voxelSize"});
     if (!(maxAnisotropy >= 1))
         throw ParameterError("the anisotropy cap (BandOptions::maxAnisotropy) must be >= 1", {"BandOptions::maxAnisotropy"});
-    BandResult r;
-    Band& b = r.band;
-    b.voxelSize = voxelSize;
-    b.index = openvdb::Int32Grid::create(-1);
-    try {
-        b.index->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
-    } catch (const openvdb::ArithmeticError&) {
-        // OpenVDB refuses linear transforms whose determinant h³ is within 1e-15 of zero (h ≲ 1e-5).
-        throw ParameterError("the voxel size (BandOptions::voxelSize) " + numberText(voxelSize) +
-                                 " is below what an OpenVDB transform can hold (about 1e-5 world units): rescale the "
-                                 "input to larger units (e.g. millimetres instead of metres)",
-                             {"BandOptions::voxelSize"});
-    }
-    b.index->setName("index");
-    {
-        auto acc = b.index->getAccessor();
-        for (std::size_t i = 0; i < voxels.size(); ++i) {
-            if (acc.isValueOn(voxels[i].coord)) throw Error("bandFromVoxels: a voxel is listed twice");
-            acc.setValue(voxels[i].coord, int(i));
-        }
-    }
-    // === Linear indices in leaf order (OpenVDB's value-on iteration order)
-    const std::size_t n = voxels.size();
-    std::vector<std::size_t> source;
-    source.reserve(n);
-    for (auto it = b.index->tree().beginValueOn(); it; ++it) {
-        source.push_back(std::size_t(*it));
-        it.setValue(int(source.size() - 1));
-    }
-    b.coord.resize(n);
-    b.mu.resize(n);
-    b.T.resize(n);
-    b.mean.resize(n);
-    b.stddev.resize(n);
-    b.normal.resize(n);
-    b.stencil.resize(n);
-    std::vector<int> regularised(n, 0);
-    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-        progress.checkInterruptAt(i, 4096);
-        const BandVoxel& v = voxels[source[i]];
-        b.coord[i] = v.coord;
-        b.mu[i] = float(v.mu);
-        const Mat3d& T = v.T;
-        b.T[i] = {float(T(0, 0)), float(T(1, 1)), float(T(2, 2)), float(T(0, 1)), float(T(0, 2)), float(T(1, 2))};
-        b.mean[i] = float(v.mean);
-        b.stddev[i] = float(v.stddev);
-        b.normal[i] = openvdb::Vec3f(float(v.normal.x()), float(v.normal.y()), float(v.normal.z()));
-        // === Selling stencil of T (regularised for anisotropy; docs/math.md#resolution)
-        bool changed = false;
-        const Selling3 s = selling(regularise(T, maxAnisotropy, changed));
-        regularised[i] = changed;
-        VoxelStencil& st = b.stencil[i];
-        st.count = std::uint8_t(s.count);
-        st.width = std::uint8_t(std::min(255, s.width()));
-        for (int k = 0; k < s.count; ++k) {
-            st.weight[std::size_t(k)] = float(s.weight[std::size_t(k)]);
-            for (int d = 0; d < 3; ++d) {
-                const int e = s.offset[std::size_t(k)][d];
-                if (e < -127 || e > 127) throw Error("Selling offset beyond ±127 despite regularisation");
-                st.offset[std::size_t(k)][std::size_t(d)] = std::int8_t(e);
-            }
-        }
-    });
-    for (std::size_t i = 0; i < n; ++i) {
-        r.stats.regularised += std::size_t(regularised[i]);
-        r.stats.maxStencilL1 = std::max(r.stats.maxStencilL1, int(b.stencil[i].width));
-    }
-    return r;
+    if (voxels.size() >= std::size_t(INT32_MAX)) throw Error("a band holds fewer than 2^31 voxels");
+    FoundVoxels found(maxAnisotropy);
+    std::vector<std::uint32_t> all(voxels.size());
+    for (std::size_t i = 0; i < all.size(); ++i) all[i] = std::uint32_t(i);
+    progress.checkInterrupt();
+    found.append(voxels, all);
+    std::vector<BandVoxel>().swap(voxels);
+    return std::move(found).assemble(voxelSize, progress);
 }
 
 BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
@@ -230,22 +340,20 @@ BandResult buildBand(const GpisModel& model, const Samples& samples, const BandO
             if (!seen.isValueOn(c + d)) seen.setValueOn(c + d), frontier.push_back(c + d);
         if (!seen.isValueOn(c)) seen.setValueOn(c), frontier.push_back(c);
     }
-    std::vector<BandVoxel> accepted;
     // === Breadth-first search: evaluate the frontier, keep μ > η, visit the kept voxels' new neighbours
     while (!frontier.empty()) {
-        std::vector<BandVoxel> values = rounds.evaluate(frontier);
-        frontier.clear();
-        for (BandVoxel& v : values) {
-            if (!(v.mu > rounds.eta)) continue;
+        std::vector<Coord> next;
+        rounds.round(frontier, [&](const Coord& c) {
             for (const Coord& d : neighbourOffsets())
-                if (!seen.isValueOn(v.coord + d)) seen.setValueOn(v.coord + d), frontier.push_back(v.coord + d);
-            accepted.push_back(std::move(v));
-        }
+                if (!seen.isValueOn(c + d)) seen.setValueOn(c + d), next.push_back(c + d);
+        });
+        frontier.swap(next);
         progress.update("band", 1.0 - 1.0 / (1.0 + 0.1 * rounds.stats.levels));
     }
+    std::vector<Coord>().swap(frontier);
     progress.update("band", 1.0);
     rounds.stats.searchSeconds = since(start) - rounds.stats.modelSeconds - rounds.stats.kacRiceSeconds;
-    return finish(std::move(accepted), o, rounds.stats, progress);
+    return finish(std::move(rounds.found), o, rounds.stats, progress);
 }
 
 BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
@@ -255,29 +363,24 @@ BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOp
     openvdb::CoordBBox box;
     for (const Coord& c : rounds.sampleVox) box.expand(c);
     box.expand(1);
-    std::vector<BandVoxel> all;
     openvdb::CoordBBox done;  // empty: nothing scanned yet
     // === Scan the box; grow it while band voxels touch its boundary (the scan must not cut the band)
     for (;;) {
         std::vector<Coord> coords;
         for (auto it = box.begin(); it; ++it)
             if (done.empty() || !done.isInside(*it)) coords.push_back(*it);
-        std::vector<BandVoxel> values = rounds.evaluate(coords);
         bool touches = false;
-        for (BandVoxel& v : values) {
-            if (!(v.mu > rounds.eta)) continue;
-            const Coord& c = v.coord;
+        rounds.round(coords, [&](const Coord& c) {
             touches = touches || c.x() == box.min().x() || c.y() == box.min().y() || c.z() == box.min().z() ||
                       c.x() == box.max().x() || c.y() == box.max().y() || c.z() == box.max().z();
-            all.push_back(std::move(v));
-        }
+        });
         if (!touches) break;
         done = box;
         const Coord dim = box.dim();
         box.expand(std::max({2, dim.x() / 8, dim.y() / 8, dim.z() / 8}));
     }
     rounds.stats.searchSeconds = since(start) - rounds.stats.modelSeconds - rounds.stats.kacRiceSeconds;
-    return finish(std::move(all), o, rounds.stats, progress);
+    return finish(std::move(rounds.found), o, rounds.stats, progress);
 }
 
 }  // namespace gpisvdb

@@ -6,10 +6,41 @@
 #include <cmath>
 
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/core/memory_estimate.h"
 
 namespace gpisvdb {
 
 double physicalMemory() { return double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE)); }
+
+double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels) {
+    // While searching: the visited mask and frontier, and either all the found voxels (at the end) or a batch in
+    // flight with the voxels found so far (the largest BFS level, ≈ 0.35 of the evaluated voxels, comes when about
+    // 0.4 of the band is found; measured on the bunny, a sphere and a cloud, docs/memory.md#band). Then, gathering
+    // the channels into leaf order: the found voxels, the index tree, the leaf order (4 B) and the largest channel
+    // gathered (the stencil).
+    const double batch = kBatchBytesPerVoxel * std::min(double(batchVoxels), kLargestLevelShare * evaluated);
+    const double search = kSearchBytesPerEvaluatedVoxel * evaluated +
+                          std::max(kFoundBytesPerVoxel * voxels, kFoundBeforeLargestLevel * kFoundBytesPerVoxel * voxels + batch);
+    const double gather = voxels * (kFoundBytesPerVoxel + kIndexTreeBytesPerVoxel + 4.0 + double(sizeof(VoxelStencil)));
+    return std::max(search, gather);
+}
+
+double bandWriteBytes(double voxels) {
+    // The band and the grid being written: a Vec3f grid's leaves hold 12 bytes a voxel where the index tree's hold 4.
+    return voxels * (kFoundBytesPerVoxel + 4.0 * kIndexTreeBytesPerVoxel);
+}
+
+BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes) {
+    BandEstimate e;
+    // === Voxel counts: the shell where μ > η (Resolution::bandVolume) and about half a voxel on either side; the
+    // build also evaluates the rejected shell, a voxel or two on each side (measured, docs/memory.md#band).
+    e.voxels = (bandVolume + kBandShellVoxels * area * h) / (h * h * h);
+    e.evaluated = (bandVolume + 4.0 * area * h) / (h * h * h);
+    e.memory.baselineBytes = baselineBytes;
+    const double build = bandBuildBytes(e.voxels, e.evaluated, batchVoxels), write = bandWriteBytes(e.voxels);
+    e.memory.parts = {{build >= write ? "building the band" : "writing the band as .vdb", std::max(build, write)}};
+    return e;
+}
 
 DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options,
                              const Progress& progress) {
@@ -37,33 +68,40 @@ DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, con
     ro.qmcSamples = bo.qmcSamples;
     ro.resolutionScale = options.resolutionScale;
     ro.maxAnisotropy = bo.maxAnisotropy;
+    ro.etaRelative = bo.etaRelative;
     out.resolution = chooseResolution(model, samples, ro, progress.interruptOnly());
     out.options = bo;
     out.options.iso = iso;
     if (!(out.options.voxelSize > 0)) out.options.voxelSize = out.resolution.h;
     const double h = out.options.voxelSize;
 
-    // === Estimate before allocating: area × (width where μ > η) / h³, plus the rejected shell
-    double area = 0;
-    for (const auto& w : samples.normal) area += w.norm();
-    const double eta = std::min(bo.etaRelative, 0.5);
-    const double thickness = 2.0 * out.resolution.muWidth * std::sqrt(2.0 * std::log(1.0 / eta)) + 4.0 * h;
-    const double estimate = area * thickness / (h * h * h);
-    if (!(estimate <= kMaxBandVoxels))  // absurd whatever the memory: refused before the model is evaluated
-        throw MemoryLimitError("the band would need about " + numberText(estimate) + " voxels at voxel size " + numberText(h) +
+    // === Estimate before allocating (docs/memory.md#band)
+    const double baseline = settledResidentBytes();
+    const auto estimate = [&](double hh) {
+        return estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline);
+    };
+    out.estimate = estimate(h);
+    const double voxels = out.estimate.voxels;
+    if (!(voxels <= kMaxBandVoxels))  // absurd whatever the memory: refused before the model is evaluated
+        throw MemoryLimitError("the band would need about " + numberText(voxels) + " voxels at voxel size " + numberText(h) +
                                    ", more than the " + numberText(kMaxBandVoxels) +
                                    " a band can hold: use a voxel size (BandOptions::voxelSize) of " +
-                                   numberText(h * std::cbrt(estimate / kMaxBandVoxels) * 1.1) + " or larger",
+                                   numberText(h * std::cbrt(voxels / kMaxBandVoxels) * 1.1) + " or larger",
                                {"BandOptions::voxelSize"});
-    if (estimate * kBuildBytesPerVoxel > out.maxMemory) {
-        const double suggest = h * std::cbrt(estimate * kBuildBytesPerVoxel / out.maxMemory) * 1.1;
-        throw MemoryLimitError("the band would need about " + numberText(estimate) + " voxels (" +
-                                   numberText(estimate * kBuildBytesPerVoxel / 1e9) + " GB) at voxel size " + numberText(h) +
+    // As every stage's: the limit bounds what the band adds to the resident set at its start.
+    const double need = out.estimate.memory.stageBytes();
+    if (need > out.maxMemory) {
+        double fits = h;  // the smallest voxel size, in steps of 2 %, whose estimate fits
+        for (int k = 0; k < 2000 && estimate(fits).memory.stageBytes() > out.maxMemory; ++k) fits *= 1.02;
+        throw MemoryLimitError("the band would need about " + numberText(voxels) + " voxels (" + numberText(need / 1e9) +
+                                   " GB) at voxel size " + numberText(h) +
                                    ", more than the memory limit (DefaultBandOptions::maxMemory) allows: use a voxel size "
-                                   "(BandOptions::voxelSize) of " + numberText(suggest) + " or larger",
+                                   "(BandOptions::voxelSize) of " + numberText(fits) + " or larger",
                                {"DefaultBandOptions::maxMemory", "BandOptions::voxelSize"});
     }
-    out.options.maxVoxels = std::size_t(out.maxMemory / kBuildBytesPerVoxel);
+    // The backstop while building, should the estimate be low: evaluated voxels are ≈ 1.4–1.6 band voxels (measured).
+    const double perVoxel = need / std::max(1.0, voxels);
+    out.options.maxVoxels = std::size_t(kEvaluatedPerBandVoxel * out.maxMemory / perVoxel);
     out.result = buildBand(model, samples, out.options, progress);
     return out;
 }

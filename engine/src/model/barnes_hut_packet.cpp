@@ -124,12 +124,14 @@ GPISVDB_LANES_INLINE LaneKernel kernelAt(const RegularizedKernel& kernel, const 
         Lanes r;
         for (int l = 0; l < kLanes; ++l) r[l] = std::sqrt(t[l]);
         const Lanes ir = 1.0 / r, u = ir * ir;
+        const Lanes u2 = u * u, u3 = u2 * u, u4 = u3 * u;
         if (newton) {
-            // Every lane beyond the Gaussian's reach: the pure Newton terms.
+            // Every lane beyond the Gaussian's reach: the pure Newton terms, rounded exactly as the closed forms
+            // below round them with erf = 1 and g = 0, so that a point's result never depends on its packet-mates.
             F.F1 = -ir * u;
-            F.F2 = 3.0 * ir * u * u;
-            F.F3 = -15.0 * ir * u * u * u;
-            F.F4 = 105.0 * ir * u * u * u * u;
+            F.F2 = 3.0 * ir * u2;
+            F.F3 = -15.0 * ir * u3;
+            F.F4 = 105.0 * ir * u4;
             return F;
         }
         // === Closed forms: F_k = c_k erf(ar) r^-(2k+1) + g P_k(r), g = (2a/√π) exp(−a²r²) (kernel.h)
@@ -142,7 +144,7 @@ GPISVDB_LANES_INLINE LaneKernel kernelAt(const RegularizedKernel& kernel, const 
             E[l] = far ? 1.0 : erfs[l];
             g[l] = far ? 0.0 : c * exps[l];
         }
-        const Lanes Eir = E * ir, u2 = u * u, u3 = u2 * u, u4 = u3 * u;
+        const Lanes Eir = E * ir;
         F.F1 = -Eir * u + g * u;
         F.F2 = 3.0 * Eir * u2 - g * (3.0 * u2 + 2.0 * a2 * u);
         F.F3 = -15.0 * Eir * u3 + g * (15.0 * u3 + 10.0 * a2 * u2 + 4.0 * a4 * u);
@@ -206,6 +208,12 @@ GPISVDB_LANES_INLINE void farMean(const BarnesHutGpis::MeanMoments& mm, const La
     }
 }
 
+/// v = M y and returns yᵀ M y, per lane.
+GPISVDB_LANES_INLINE Lanes quadratic(const double (&M)[3][3], const LaneVec3& y, Lanes (&v)[3]) {
+    for (int i = 0; i < 3; ++i) v[i] = M[i][0] * y[0] + M[i][1] * y[1] + M[i][2] * y[2];
+    return y[0] * v[0] + y[1] * v[1] + y[2] * v[2];
+}
+
 /// The covariance's first-order far field of one node (addFarCovariance), times `on`, in closed form
 /// (docs/model.md#packets). Both noise terms have the shape E(y; M) = coefficients(F, t) × {τ = tr M, m = yᵀMy,
 /// v = My, M, y, δ}: position noise with M = W = Σ σ² w wᵀ, normal noise with M = Σ Σ'. The first order is
@@ -228,16 +236,12 @@ GPISVDB_LANES_INLINE void farCovariance(const BarnesHutGpis::CovarianceMoments& 
     }
     const double tauW = cm.posW.trace();
     // === Per lane: v = My and m = yᵀMy for W, Σ Σ', every B_l and C_l; their contractions over l
-    auto times = [&](const double (&M)[3][3], Lanes (&v)[3]) {
-        for (int i = 0; i < 3; ++i) v[i] = M[i][0] * y[0] + M[i][1] * y[1] + M[i][2] * y[2];
-        return Lanes(y[0] * v[0] + y[1] * v[1] + y[2] * v[2]);
-    };
     double Wm[3][3], Sm[3][3];
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) Wm[i][j] = cm.posW(i, j), Sm[i][j] = cm.nrmS(i, j);
     Lanes vW[3], vS[3], vB[3][3], vC[3][3], mB[3], mC[3];
-    const Lanes mW = times(Wm, vW), mS = times(Sm, vS);
-    for (int l = 0; l < 3; ++l) mB[l] = times(B[l], vB[l]), mC[l] = times(C[l], vC[l]);
+    const Lanes mW = quadratic(Wm, y, vW), mS = quadratic(Sm, y, vS);
+    for (int l = 0; l < 3; ++l) mB[l] = quadratic(B[l], y, vB[l]), mC[l] = quadratic(C[l], y, vC[l]);
     const Lanes T1B = y[0] * tauB[0] + y[1] * tauB[1] + y[2] * tauB[2];
     const Lanes T2B = y[0] * mB[0] + y[1] * mB[1] + y[2] * mB[2], T2C = y[0] * mC[0] + y[1] * mC[1] + y[2] * mC[2];
     const Lanes T3B = y[0] * uB[0] + y[1] * uB[1] + y[2] * uB[2], T3C = y[0] * uC[0] + y[1] * uC[1] + y[2] * uC[2];

@@ -1,7 +1,18 @@
 #include "gpisvdb/output/write_vdb.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <set>
+#include <openvdb/io/Archive.h>
+#include <openvdb/io/GridDescriptor.h>
+#include <openvdb/io/io.h>
 
 #include "gpisvdb/core/errors.h"
 
@@ -48,30 +59,180 @@ double vecMagnitude(const openvdb::Vec3s& x) {
 
 /// Refuses to write a grid with a non-finite active value or background (or one a half cannot hold): a tool
 /// would read inf or NaN as data, or a half file would turn large values into inf.
-void checkFiniteGrids(const openvdb::GridPtrVec& grids, bool half) {
-    for (const auto& g : grids) {
-        openvdb::Coord first;
-        std::size_t bad = 0;
-        double background = 0;
-        if (auto f = openvdb::GridBase::grid<openvdb::FloatGrid>(g)) {
-            bad = countBad(*f, half, [](float v) { return std::abs(double(v)); }, first);
-            background = std::abs(double(f->background()));
-        } else if (auto v = openvdb::GridBase::grid<openvdb::Vec3SGrid>(g)) {
-            bad = countBad(*v, half, vecMagnitude, first);
-            background = vecMagnitude(v->background());
-        } else {
-            continue;
+void checkFiniteGrid(const openvdb::GridBase::ConstPtr& g, bool half) {
+    openvdb::Coord first;
+    std::size_t bad = 0;
+    double background = 0;
+    if (auto f = openvdb::GridBase::constGrid<openvdb::FloatGrid>(g)) {
+        bad = countBad(*f, half, [](float v) { return std::abs(double(v)); }, first);
+        background = std::abs(double(f->background()));
+    } else if (auto v = openvdb::GridBase::constGrid<openvdb::Vec3SGrid>(g)) {
+        bad = countBad(*v, half, vecMagnitude, first);
+        background = vecMagnitude(v->background());
+    } else {
+        return;
+    }
+    const bool badBackground = !std::isfinite(background) || (half && background > kHalfMax);
+    if (!bad && !badBackground) return;
+    const std::string where = bad ? std::to_string(bad) + " active values (the first at voxel " + std::to_string(first.x()) +
+                                        "," + std::to_string(first.y()) + "," + std::to_string(first.z()) + ")"
+                                  : std::string("its background value");
+    if (half)
+        throw ParameterError("grid '" + g->getName() + "': " + where + " are not finite or beyond the half-float range ±65504 "
+                             "(VdbWriteOptions::halfFloat): not written; store full floats",
+                             {"VdbWriteOptions::halfFloat"});
+    throw Error("grid '" + g->getName() + "': " + where + " are not finite (inf or NaN): not written");
+}
+
+/// Makes one grid when called; the band's writer makes, checks and writes them one at a time.
+using GridMaker = std::function<openvdb::GridBase::Ptr()>;
+
+std::vector<GridMaker> bandGridMakers(const Band& band, const std::vector<NamedChannel>& extra,
+                                      const std::vector<NamedVectorChannel>& vectors) {
+    for (const NamedChannel& c : extra)
+        if (!c.values || c.values->size() != band.size()) throw Error("channel '" + c.name + "' does not match the band");
+    for (const NamedVectorChannel& c : vectors)
+        if (!c.values || c.values->size() != 3 * band.size()) throw Error("vector channel '" + c.name + "' does not match the band");
+    std::vector<GridMaker> makers;
+    makers.push_back([&band] {
+        auto mu = channel<openvdb::FloatGrid>(band, "mu", [&](std::size_t i) { return band.mu[i]; });
+        mu->setGridClass(openvdb::GRID_FOG_VOLUME);
+        return mu;
+    });
+    makers.push_back([&band] { return channel<openvdb::FloatGrid>(band, "mean", [&](std::size_t i) { return band.mean[i]; }); });
+    makers.push_back([&band] { return channel<openvdb::FloatGrid>(band, "stddev", [&](std::size_t i) { return band.stddev[i]; }); });
+    for (const int part : {0, 3}) {  // T_diag (xx, yy, zz), T_offdiag (xy, xz, yz)
+        makers.push_back([&band, part] {
+            auto t = channel<openvdb::Vec3SGrid>(band, part == 0 ? "T_diag" : "T_offdiag", [&](std::size_t i) {
+                return openvdb::Vec3s(band.T[i][std::size_t(part)], band.T[i][std::size_t(part + 1)], band.T[i][std::size_t(part + 2)]);
+            });
+            t->setVectorType(openvdb::VEC_INVARIANT);
+            return t;
+        });
+    }
+    makers.push_back([&band] {
+        auto normal = channel<openvdb::Vec3SGrid>(band, "normal", [&](std::size_t i) { return band.normal[i]; });
+        normal->setVectorType(openvdb::VEC_COVARIANT_NORMALIZE);
+        return normal;
+    });
+    // Integer-valued, but a float grid: Debian's pyopenvdb cannot read a file holding an Int32Grid at all.
+    makers.push_back([&band] {
+        return channel<openvdb::FloatGrid>(band, "stencil_width", [&](std::size_t i) { return float(band.stencil[i].width); });
+    });
+    for (const NamedChannel& c : extra) {
+        makers.push_back([&band, &c] {
+            auto grid = channel<openvdb::FloatGrid>(band, c.name, [&](std::size_t i) { return (*c.values)[i]; }, c.background);
+            auto acc = grid->getAccessor();
+            for (std::size_t i = 0; i < band.size(); ++i)
+                if (!std::isfinite((*c.values)[i])) acc.setValueOff(band.coord[i], c.background);
+            return grid;
+        });
+    }
+    for (const NamedVectorChannel& c : vectors) {
+        makers.push_back([&band, &c] {
+            const std::vector<float>& v = *c.values;
+            auto grid = channel<openvdb::Vec3SGrid>(band, c.name, [&](std::size_t i) {
+                return openvdb::Vec3s(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
+            });
+            grid->setVectorType(c.vectorType);
+            auto acc = grid->getAccessor();  // like scalar channels: a non-finite vector is left inactive
+            for (std::size_t i = 0; i < band.size(); ++i)
+                if (!(std::isfinite(v[3 * i]) && std::isfinite(v[3 * i + 1]) && std::isfinite(v[3 * i + 2])))
+                    acc.setValueOff(band.coord[i], openvdb::Vec3s(0.0f));
+            return grid;
+        });
+    }
+    return makers;
+}
+
+std::vector<GridMaker> sellingGridMakers(const Band& band) {
+    std::vector<GridMaker> makers;
+    for (std::size_t k = 0; k < 6; ++k) {
+        makers.push_back([&band, k] {
+            return channel<openvdb::FloatGrid>(band, "selling_weight_" + std::to_string(k), [&](std::size_t i) {
+                return int(k) < band.stencil[i].count ? band.stencil[i].weight[k] : 0.0f;
+            });
+        });
+        makers.push_back([&band, k] {
+            auto offset = channel<openvdb::Vec3SGrid>(band, "selling_offset_" + std::to_string(k), [&](std::size_t i) {
+                const VoxelStencil& st = band.stencil[i];
+                if (int(k) >= st.count) return openvdb::Vec3s(0.0f);
+                return openvdb::Vec3s(float(st.offset[k][0]), float(st.offset[k][1]), float(st.offset[k][2]));
+            });
+            // Index-space integers: a tool must not rotate or rescale them with the transform.
+            offset->setVectorType(openvdb::VEC_INVARIANT);
+            return offset;
+        });
+    }
+    return makers;
+}
+
+/// An OpenVDB file written one grid at a time, through the library's own Archive (header, file metadata, grid
+/// count, then each grid with its descriptor and offsets, as io::File::write lays them out): only the grid being
+/// written is in memory, not all of them.
+class GridStreamWriter : private openvdb::io::Archive {
+public:
+    GridStreamWriter(const std::string& path, const openvdb::MetaMap& metadata, std::size_t gridCount) : path_(path) {
+        file_.open(path, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
+        if (file_.fail()) throw OutputError(path + ": cannot open the VDB file for writing");
+        setCompression(openvdb::io::COMPRESS_BLOSC);
+        openvdb::io::setStreamMetadataPtr(file_, streamMetadata_, /*transfer=*/false);
+        openvdb::io::setDataCompression(file_, compression());
+        openvdb::io::setWriteGridStatsMetadata(file_, isGridStatsMetadataEnabled());
+        writeHeader(file_, /*seekable=*/true);
+        metadata.writeMeta(file_);
+        const std::int32_t count = std::int32_t(gridCount);
+        file_.write(reinterpret_cast<const char*>(&count), sizeof(count));
+        remaining_ = gridCount;
+    }
+
+    void write(const openvdb::GridBase::ConstPtr& grid) {
+        if (remaining_ == 0 || !names_.insert(grid->getName()).second)
+            throw Error("GridStreamWriter: more grids than announced, or a grid name used twice");
+        openvdb::io::GridDescriptor descriptor(grid->getName(), grid->type(), grid->saveFloatAsHalf());
+        writeGrid(descriptor, grid, file_, /*seekable=*/true);
+        --remaining_;
+    }
+
+    void close() {
+        if (remaining_ != 0) throw Error("GridStreamWriter: fewer grids written than announced");
+        file_.close();
+        if (file_.fail()) throw OutputError(path_ + ": cannot write the VDB file (disk full?)");
+    }
+
+private:
+    std::string path_;
+    openvdb::io::StreamMetadata::Ptr streamMetadata_ = std::make_shared<openvdb::io::StreamMetadata>();
+    std::ofstream file_;
+    std::set<std::string> names_;
+    std::size_t remaining_ = 0;
+};
+
+/// Makes, checks and writes the grids one at a time into a sibling temporary file, renamed to `path` at the end:
+/// a grid that fails its check (or any error) leaves no file behind and `path` untouched.
+void writeGridsStreaming(const std::vector<GridMaker>& makers, const std::string& path, const openvdb::MetaMap& metadata,
+                         const VdbWriteOptions& options) {
+    openvdb::initialize();
+    const std::string temp = path + ".part" + std::to_string(::getpid());
+    try {
+        GridStreamWriter writer(temp, metadata, makers.size());
+        for (const GridMaker& make : makers) {
+            openvdb::GridBase::Ptr grid = make();
+            checkFiniteGrid(grid, options.halfFloat);
+            grid->setSaveFloatAsHalf(options.halfFloat);
+            writer.write(grid);
         }
-        const bool badBackground = !std::isfinite(background) || (half && background > kHalfMax);
-        if (!bad && !badBackground) continue;
-        const std::string where = bad ? std::to_string(bad) + " active values (the first at voxel " + std::to_string(first.x()) +
-                                            "," + std::to_string(first.y()) + "," + std::to_string(first.z()) + ")"
-                                      : std::string("its background value");
-        if (half)
-            throw ParameterError("grid '" + g->getName() + "': " + where + " are not finite or beyond the half-float range ±65504 "
-                                 "(VdbWriteOptions::halfFloat): not written; store full floats",
-                                 {"VdbWriteOptions::halfFloat"});
-        throw Error("grid '" + g->getName() + "': " + where + " are not finite (inf or NaN): not written");
+        writer.close();
+    } catch (const openvdb::Exception& e) {
+        std::remove(temp.c_str());
+        throw OutputError(path + ": cannot write the VDB file: " + e.what());
+    } catch (...) {
+        std::remove(temp.c_str());
+        throw;
+    }
+    if (std::rename(temp.c_str(), path.c_str()) != 0) {
+        std::remove(temp.c_str());
+        throw OutputError(path + ": cannot write the VDB file (rename from " + temp + " failed)");
     }
 }
 
@@ -81,73 +242,21 @@ openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>&
                               const std::vector<NamedVectorChannel>& vectors) {
     openvdb::initialize();
     openvdb::GridPtrVec grids;
-    auto mu = channel<openvdb::FloatGrid>(band, "mu", [&](std::size_t i) { return band.mu[i]; });
-    mu->setGridClass(openvdb::GRID_FOG_VOLUME);
-    grids.push_back(mu);
-    grids.push_back(channel<openvdb::FloatGrid>(band, "mean", [&](std::size_t i) { return band.mean[i]; }));
-    grids.push_back(channel<openvdb::FloatGrid>(band, "stddev", [&](std::size_t i) { return band.stddev[i]; }));
-    auto tDiag = channel<openvdb::Vec3SGrid>(band, "T_diag", [&](std::size_t i) {
-        return openvdb::Vec3s(band.T[i][0], band.T[i][1], band.T[i][2]);
-    });
-    auto tOff = channel<openvdb::Vec3SGrid>(band, "T_offdiag", [&](std::size_t i) {
-        return openvdb::Vec3s(band.T[i][3], band.T[i][4], band.T[i][5]);
-    });
-    tDiag->setVectorType(openvdb::VEC_INVARIANT);
-    tOff->setVectorType(openvdb::VEC_INVARIANT);
-    grids.push_back(tDiag);
-    grids.push_back(tOff);
-    auto normal = channel<openvdb::Vec3SGrid>(band, "normal", [&](std::size_t i) { return band.normal[i]; });
-    normal->setVectorType(openvdb::VEC_COVARIANT_NORMALIZE);
-    grids.push_back(normal);
-    // Integer-valued, but a float grid: Debian's pyopenvdb cannot read a file holding an Int32Grid at all.
-    grids.push_back(channel<openvdb::FloatGrid>(band, "stencil_width", [&](std::size_t i) { return float(band.stencil[i].width); }));
-    for (const NamedChannel& c : extra) {
-        if (!c.values || c.values->size() != band.size()) throw Error("channel '" + c.name + "' does not match the band");
-        auto grid = channel<openvdb::FloatGrid>(band, c.name, [&](std::size_t i) { return (*c.values)[i]; }, c.background);
-        auto acc = grid->getAccessor();
-        for (std::size_t i = 0; i < band.size(); ++i)
-            if (!std::isfinite((*c.values)[i])) acc.setValueOff(band.coord[i], c.background);
-        grids.push_back(grid);
-    }
-    for (const NamedVectorChannel& c : vectors) {
-        if (!c.values || c.values->size() != 3 * band.size()) throw Error("vector channel '" + c.name + "' does not match the band");
-        const std::vector<float>& v = *c.values;
-        auto grid = channel<openvdb::Vec3SGrid>(band, c.name, [&](std::size_t i) {
-            return openvdb::Vec3s(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
-        });
-        grid->setVectorType(c.vectorType);
-        auto acc = grid->getAccessor();  // like scalar channels: a non-finite vector is left inactive
-        for (std::size_t i = 0; i < band.size(); ++i)
-            if (!(std::isfinite(v[3 * i]) && std::isfinite(v[3 * i + 1]) && std::isfinite(v[3 * i + 2])))
-                acc.setValueOff(band.coord[i], openvdb::Vec3s(0.0f));
-        grids.push_back(grid);
-    }
+    for (const GridMaker& make : bandGridMakers(band, extra, vectors)) grids.push_back(make());
     return grids;
 }
 
 openvdb::GridPtrVec sellingGrids(const Band& band) {
     openvdb::initialize();
     openvdb::GridPtrVec grids;
-    for (std::size_t k = 0; k < 6; ++k) {
-        grids.push_back(channel<openvdb::FloatGrid>(band, "selling_weight_" + std::to_string(k), [&](std::size_t i) {
-            return int(k) < band.stencil[i].count ? band.stencil[i].weight[k] : 0.0f;
-        }));
-        auto offset = channel<openvdb::Vec3SGrid>(band, "selling_offset_" + std::to_string(k), [&](std::size_t i) {
-            const VoxelStencil& st = band.stencil[i];
-            if (int(k) >= st.count) return openvdb::Vec3s(0.0f);
-            return openvdb::Vec3s(float(st.offset[k][0]), float(st.offset[k][1]), float(st.offset[k][2]));
-        });
-        // Index-space integers: a tool must not rotate or rescale them with the transform.
-        offset->setVectorType(openvdb::VEC_INVARIANT);
-        grids.push_back(offset);
-    }
+    for (const GridMaker& make : sellingGridMakers(band)) grids.push_back(make());
     return grids;
 }
 
 void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
               const VdbWriteOptions& options) {
     openvdb::initialize();
-    checkFiniteGrids(grids, options.halfFloat);
+    for (const auto& g : grids) checkFiniteGrid(g, options.halfFloat);
     for (auto& g : grids) g->setSaveFloatAsHalf(options.halfFloat);
     try {
         openvdb::io::File file(path);
@@ -162,12 +271,12 @@ void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const o
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
                   const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors,
                   const VdbWriteOptions& options) {
-    openvdb::GridPtrVec grids = bandGrids(band, extra, vectors);
+    std::vector<GridMaker> makers = bandGridMakers(band, extra, vectors);
     if (options.sellingStencils) {
-        const openvdb::GridPtrVec selling = sellingGrids(band);
-        grids.insert(grids.end(), selling.begin(), selling.end());
+        std::vector<GridMaker> selling = sellingGridMakers(band);
+        makers.insert(makers.end(), selling.begin(), selling.end());
     }
-    writeVdb(grids, path, metadata, options);
+    writeGridsStreaming(makers, path, metadata, options);
 }
 
 }  // namespace gpisvdb

@@ -32,7 +32,7 @@ Resolution chooseResolution(const GpisModel& model, const Samples& samples, cons
     const QmcRule rule(options.qmcSamples);
     const std::vector<ValueGradient> z = model.evaluate(samples.position, progress);
     std::vector<int> width(z.size(), 0);
-    std::vector<double> muWidth(z.size(), 0);
+    std::vector<double> muWidth(z.size(), 0), mu(z.size(), 0), muPeak(z.size(), 0);
     tbb::parallel_for(std::size_t(0), z.size(), [&](std::size_t i) {
         progress.checkInterruptAt(i);
         const SurfaceDensity d = kacRice(z[i], options.iso, rule);
@@ -40,8 +40,21 @@ Resolution chooseResolution(const GpisModel& model, const Samples& samples, cons
         if (d.mu > 0) width[i] = selling(regularise(d.T, options.maxAnisotropy, changed)).width();
         const double g = z[i].mean.tail<3>().norm();
         muWidth[i] = g > 0 ? std::sqrt(std::max(0.0, z[i].cov(0, 0))) / g : 0.0;
+        mu[i] = d.mu;
+        // μ across the surface ≈ a Gaussian of width w_i about the mean surface, the sample at (γ − u)/‖∇γ‖ from it.
+        const double offset = muWidth[i] > 0 ? (z[i].mean[0] - options.iso) / g / muWidth[i] : 0.0;
+        muPeak[i] = d.mu * std::exp(std::min(50.0, 0.5 * offset * offset));
     });
     Resolution r;
+    // === The band's cross-section from each sample's width where μ > η (see Resolution::bandVolume)
+    std::vector<double> sorted = mu;
+    std::nth_element(sorted.begin(), sorted.begin() + long(sorted.size() / 2), sorted.end());
+    const double eta = std::min(options.etaRelative, 0.5) * sorted[sorted.size() / 2];
+    for (std::size_t i = 0; i < z.size(); ++i) {
+        const double a = samples.normal[i].norm();
+        r.area += a;
+        if (eta > 0 && muPeak[i] > eta) r.bandVolume += a * 2.0 * muWidth[i] * std::sqrt(2.0 * std::log(muPeak[i] / eta));
+    }
     r.maxStencilL1 = std::max(1, *std::max_element(width.begin(), width.end()));
     r.hStar = options.resolutionScale * samples.lengthScale / r.maxStencilL1;
     std::nth_element(muWidth.begin(), muWidth.begin() + long(muWidth.size() / 2), muWidth.end());

@@ -19,6 +19,8 @@ struct BandOptions {
     int qmcSamples = 512;          ///< S, QMC points for μ and T (≥ 1)
     double maxAnisotropy = 20;     ///< T is regularised to √(λmax/λmin) ≤ this before Selling (≥ 1)
     std::size_t maxVoxels = 0;     ///< refuse once more voxels than this would be evaluated (0: no limit)
+    std::size_t batchVoxels = std::size_t(1) << 18;  ///< voxels evaluated together (≥ 1): bounds the build's transient
+                                   ///< memory (≈ 330 bytes each); the band does not depend on it
 };
 
 struct BandStats {
@@ -30,9 +32,9 @@ struct BandStats {
     int levels = 0;                ///< BFS levels (scan: growth rounds)
     // Wall-clock seconds per stage (they sum to about the whole build):
     double modelSeconds = 0;       ///< evaluating the GPIS at the visited voxels
-    double kacRiceSeconds = 0;     ///< μ, T and the channels from the Gaussians
+    double kacRiceSeconds = 0;     ///< μ, T, the channels and the Selling stencils from the Gaussians
     double searchSeconds = 0;      ///< the BFS frontier (or the scan's boxes) and η
-    double finishSeconds = 0;      ///< the index tree in leaf order, the channels' arrays and the Selling stencils
+    double finishSeconds = 0;      ///< the index tree in leaf order and the channels gathered in that order
 };
 
 struct BandResult {

@@ -31,7 +31,8 @@ public:
     /// One point: the reference path, one traversal per point.
     ValueGradient evaluate(const Vec3d& x) const override;
     /// Many points: sorted along a Morton curve and evaluated kPacket at a time, one traversal per packet
-    /// (evaluatePacket). Each result equals evaluate(x) up to rounding; none depends on the thread count.
+    /// (evaluatePacket). Each result equals evaluate(x) up to rounding, and depends on neither the thread count nor
+    /// the other points of the batch (to the bit: the band's builder evaluates in batches of any size).
     std::vector<ValueGradient> evaluate(const std::vector<Vec3d>& xs, const Progress& progress = {}) const override;
 
     /// Points evaluated together: every node is tested for each of them and its expansion computed for all of them
