@@ -172,9 +172,12 @@ std::vector<GridMaker> sellingGridMakers(const Band& band) {
 /// written is in memory, not all of them.
 class GridStreamWriter : private openvdb::io::Archive {
 public:
-    GridStreamWriter(const std::string& path, const openvdb::MetaMap& metadata, std::size_t gridCount) : path_(path) {
-        file_.open(path, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
-        if (file_.fail()) throw OutputError(path + ": cannot open the VDB file for writing");
+    /// Writes `file`; errors name `shownPath` (the file's final name when `file` is a temporary).
+    GridStreamWriter(const std::string& file, const std::string& shownPath, const openvdb::MetaMap& metadata,
+                     std::size_t gridCount)
+        : path_(shownPath) {
+        file_.open(file, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
+        if (file_.fail()) throw OutputError(shownPath + ": cannot open the VDB file for writing");
         setCompression(openvdb::io::COMPRESS_BLOSC);
         openvdb::io::setStreamMetadataPtr(file_, streamMetadata_, /*transfer=*/false);
         openvdb::io::setDataCompression(file_, compression());
@@ -215,7 +218,7 @@ void writeGridsStreaming(const std::vector<GridMaker>& makers, const std::string
     openvdb::initialize();
     const std::string temp = path + ".part" + std::to_string(::getpid());
     try {
-        GridStreamWriter writer(temp, metadata, makers.size());
+        GridStreamWriter writer(temp, path, metadata, makers.size());
         for (const GridMaker& make : makers) {
             openvdb::GridBase::Ptr grid = make();
             checkFiniteGrid(grid, options.halfFloat);
