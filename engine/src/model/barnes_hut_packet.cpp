@@ -96,19 +96,6 @@ void erfExp(const double* x, const double* y, double* ex, double* ey) {
 }
 #endif
 
-/// 1/(2m + 2k + 1) and 1/(m + 1) of the kernel's power series (RegularizedKernel::at).
-struct SeriesTable {
-    double inv[RegularizedKernel::kSeriesTerms][4];  // k = 1…4
-    double next[RegularizedKernel::kSeriesTerms];
-    SeriesTable() {
-        for (int m = 0; m < RegularizedKernel::kSeriesTerms; ++m) {
-            for (int k = 1; k <= 4; ++k) inv[m][k - 1] = 1.0 / double(2 * m + 2 * k + 1);
-            next[m] = 1.0 / double(m + 1);
-        }
-    }
-};
-const SeriesTable kSeries;
-
 /// F_1…F_4 per lane: RegularizedKernel::at's formulas (series, closed forms, pure Newton terms), computed in lanes.
 GPISVDB_LANES_INLINE LaneKernel kernelAt(const RegularizedKernel& kernel, const Lanes& t) {
     LaneKernel F;
@@ -152,11 +139,12 @@ GPISVDB_LANES_INLINE LaneKernel kernelAt(const RegularizedKernel& kernel, const 
     }
     if (series) {
         // === Series (a lane within ~3s of the point): F_k = c (−2a²)^k Σ_m (−a²t)^m / (m! (2m+2k+1)), in lanes
+        const RegularizedKernel::Series& series = RegularizedKernel::series();
         Lanes sum[4] = {splat(0), splat(0), splat(0), splat(0)}, term = splat(1.0);
         const Lanes x = -a2 * t;
         for (int m = 0; m < RegularizedKernel::kSeriesTerms; ++m) {
-            for (int k = 0; k < 4; ++k) sum[k] += term * kSeries.inv[m][k];
-            term *= x * kSeries.next[m];
+            for (int k = 0; k < 4; ++k) sum[k] += term * series.inverse[m][k + 1];
+            term *= x * series.next[m];
         }
         const double s1 = -2.0 * a2 * c, s2 = -2.0 * a2 * s1, s3 = -2.0 * a2 * s2, s4 = -2.0 * a2 * s3;
         for (int l = 0; l < kLanes; ++l)

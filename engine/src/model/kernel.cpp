@@ -11,15 +11,19 @@ constexpr double kSwitchAR = 2.0;  // series below a·r = 2: terms (a²t)^m/m! s
 constexpr int kSeriesTerms = RegularizedKernel::kSeriesTerms;
 constexpr double kFarAR = 8.0;     // beyond a·r = 8, erf = 1 and exp(−a²r²)·(ar)^8 < 1e-20: pure Newton terms
 
-struct SeriesTable {
-    double inv[kSeriesTerms][5];  // 1 / (2m + 2k + 1)
-    SeriesTable() {
-        for (int m = 0; m < kSeriesTerms; ++m)
-            for (int k = 0; k < 5; ++k) inv[m][k] = 1.0 / double(2 * m + 2 * k + 1);
-    }
-};
-const SeriesTable kSeries;
 }  // namespace
+
+const RegularizedKernel::Series& RegularizedKernel::series() {
+    static const Series table = [] {
+        Series s;
+        for (int m = 0; m < kSeriesTerms; ++m) {
+            for (int k = 0; k < 5; ++k) s.inverse[m][k] = 1.0 / double(2 * m + 2 * k + 1);
+            s.next[m] = 1.0 / double(m + 1);
+        }
+        return s;
+    }();
+    return table;
+}
 
 RegularizedKernel::RegularizedKernel(double s) : s_(s) {
     if (!(s > 0) || !std::isfinite(s))
@@ -35,11 +39,12 @@ RadialDerivatives RegularizedKernel::at(double t) const {
     RadialDerivatives F;
     if (t < tSwitch_) {
         // === Series: G^(k)(t) = c Σ_m (−a²)^(m+k) t^m / (m! (2m+2k+1))
+        const Series& series = RegularizedKernel::series();
         double sum[5] = {0, 0, 0, 0, 0};
         double term = 1.0;  // (−a² t)^m / m!
         const double x = -a2_ * t;
         for (int m = 0; m < kSeriesTerms; ++m) {
-            for (int k = 0; k < 5; ++k) sum[k] += term * kSeries.inv[m][k];
+            for (int k = 0; k < 5; ++k) sum[k] += term * series.inverse[m][k];
             term *= x / double(m + 1);
         }
         double scale = c_;  // c (−a²)^k 2^k

@@ -47,9 +47,8 @@ Resolution chooseResolution(const GpisModel& model, const Samples& samples, cons
     });
     Resolution r;
     // === The band's cross-section from each sample's width where μ > η (see Resolution::bandVolume)
-    std::vector<double> sorted = mu;
-    std::nth_element(sorted.begin(), sorted.begin() + long(sorted.size() / 2), sorted.end());
-    const double eta = std::min(options.etaRelative, 0.5) * sorted[sorted.size() / 2];
+    std::nth_element(mu.begin(), mu.begin() + long(mu.size() / 2), mu.end());  // (mu is not read after this)
+    const double eta = std::min(options.etaRelative, 0.5) * mu[mu.size() / 2];
     for (std::size_t i = 0; i < z.size(); ++i) {
         const double a = samples.normal[i].norm();
         r.area += a;

@@ -35,6 +35,13 @@ public:
     double gaussianFactor() const { return c_; }
     /// Terms of the power series below seriesDistance2(): G^(k)(t) = c Σ_{m < kSeriesTerms} (−a² t)^m / (m! (2m+2k+1)).
     static constexpr int kSeriesTerms = 34;  // 4^34/34! < 1e-18: below double rounding at a·r = 2
+    /// The series' constants: inverse[m][k] = 1/(2m + 2k + 1), next[m] = 1/(m + 1) (the SIMD packets multiply by
+    /// it where at() divides).
+    struct Series {
+        double inverse[kSeriesTerms][5];
+        double next[kSeriesTerms];
+    };
+    static const Series& series();
 
     /// D²ρ at y.
     static Mat3d hessian(const RadialDerivatives& F, const Vec3d& y);
