@@ -211,10 +211,11 @@ TEST_CASE("eigen solver: the automatic method takes LOBPCG where CHOLMOD's facto
     CHECK_THROWS_AS(lowestEigenpairs(L, m, o), MemoryLimitError);
 }
 
-TEST_CASE("eigen solver: LOBPCG is identical for 1 and 2 threads, and refuses bad options", "[eigen][multigrid]") {
+TEST_CASE("eigen solver: LOBPCG is identical for 1 and 2 threads, its sums swept by chunks of rows, and refuses bad options", "[eigen][multigrid]") {
     const Band& band = test::sphereBand();
     const SparseMatrixD L = assembleLaplacianDouble(band);
     const Eigen::VectorXd m = massVector(band);
+    REQUIRE(L.rows() > 4 * 2048);  // several of LOBPCG's row chunks (kChunkRows), so their sums' order is tested
     EigenResult r1, r2;
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);

@@ -6,7 +6,10 @@
 #include <random>
 #include <string>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 #include <vector>
 
 #include "gpisvdb/core/errors.h"
@@ -24,24 +27,64 @@ using Eigen::VectorXd;
 /// Below this share of the largest M-Gram eigenvalue a direction of [X, W, P] is dependent on the others: dropped.
 constexpr double kRankTolerance = 1e-13;
 
-/// Y = L X for the first `cols` columns (L symmetric: row j of L is its column j), rows in parallel, each row's sum
-/// in the order of its entries.
-void applyL(const SparseMatrixD& L, const MatrixXd& X, Index cols, MatrixXd& Y) {
-    const Index n = L.cols();
-    tbb::parallel_for(tbb::blocked_range<Index>(0, n, 2048), [&](const tbb::blocked_range<Index>& r) {
-        std::vector<double> row(std::size_t(cols), 0.0);
-        for (Index j = r.begin(); j != r.end(); ++j) {
-            std::fill(row.begin(), row.end(), 0.0);
-            for (SparseMatrixD::InnerIterator it(L, j); it; ++it)
-                for (Index c = 0; c < cols; ++c) row[std::size_t(c)] += it.value() * X(it.index(), c);
-            for (Index c = 0; c < cols; ++c) Y(j, c) = row[std::size_t(c)];
-        }
-    });
+/// Rows of a chunk: the blocks are swept a chunk of rows at a time, so that L X, M X and their kin exist only a chunk
+/// at a time (N × m doubles saved per product). Fixed, so that every sum is taken in the same order for any thread
+/// count.
+constexpr Index kChunkRows = 2048;
+
+/// The chunks of n rows: chunk c is rows [c kChunkRows, min(n, (c + 1) kChunkRows)).
+struct Chunks {
+    Index n;
+    Index count() const { return (n + kChunkRows - 1) / kChunkRows; }
+    Index begin(Index c) const { return c * kChunkRows; }
+    Index rows(Index c) const { return std::min(n, (c + 1) * kChunkRows) - c * kChunkRows; }
+};
+
+/// Rows [r0, r0 + out.rows()) of L B for B's first out.cols() columns (L symmetric: row j of L is its column j),
+/// each row's sum in the order of its entries.
+void applyLRows(const SparseMatrixD& L, const MatrixXd& B, Index r0, Eigen::Ref<MatrixXd> out) {
+    const Index cols = out.cols();
+    std::vector<double> row(static_cast<std::size_t>(cols));  // a local sum: `out` may alias B for the compiler, `row` cannot
+    for (Index r = 0; r < out.rows(); ++r) {
+        std::fill(row.begin(), row.end(), 0.0);
+        for (SparseMatrixD::InnerIterator it(L, r0 + r); it; ++it)
+            for (Index c = 0; c < cols; ++c) row[std::size_t(c)] += it.value() * B(it.index(), c);
+        for (Index c = 0; c < cols; ++c) out(r, c) = row[std::size_t(c)];
+    }
 }
 
-/// Aᵀ B for column blocks of n rows, in a fixed order whatever the thread count (Eigen's product, single-threaded).
-MatrixXd gram(const MatrixXd& A, Index aCols, const MatrixXd& B, Index bCols) {
-    return A.leftCols(aCols).transpose() * B.leftCols(bCols);
+/// Σ over the chunks of perChunk(chunk's first row, its rows) (each a rows × cols matrix), in a split-and-join
+/// pattern fixed by the chunk count alone (tbb::parallel_deterministic_reduce): bitwise the same for any thread
+/// count, with only the partial sums in flight alive.
+template <class F>
+MatrixXd sumOverChunks(const Chunks& chunks, Index rows, Index cols, const F& perChunk) {
+    return tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<Index>(0, chunks.count(), 1), MatrixXd(MatrixXd::Zero(rows, cols)),
+        [&](const tbb::blocked_range<Index>& range, MatrixXd sum) {
+            for (Index c = range.begin(); c != range.end(); ++c) sum += perChunk(chunks.begin(c), chunks.rows(c));
+            return sum;
+        },
+        [](const MatrixXd& a, const MatrixXd& b) { return MatrixXd(a + b); });
+}
+
+/// A thread's work space for a chunk's products, reused from chunk to chunk: a fresh temporary per chunk would be
+/// mapped and unmapped by malloc each time (it is above glibc's mmap threshold), a page fault per page (12 % of the
+/// time, measured).
+struct Scratch {
+    std::vector<double> a, b;
+};
+
+Eigen::Map<MatrixXd> view(std::vector<double>& storage, Index rows, Index cols) {
+    if (storage.size() < std::size_t(rows * cols)) storage.resize(std::size_t(rows * cols));
+    return {storage.data(), rows, cols};
+}
+
+/// Calls perChunk(first row, rows) for every chunk, in parallel: for row-local updates.
+template <class F>
+void forEachChunk(const Chunks& chunks, const F& perChunk) {
+    tbb::parallel_for(tbb::blocked_range<Index>(0, chunks.count(), 1), [&](const tbb::blocked_range<Index>& range) {
+        for (Index c = range.begin(); c != range.end(); ++c) perChunk(chunks.begin(c), chunks.rows(c));
+    });
 }
 
 }  // namespace
@@ -52,7 +95,11 @@ int lobpcgBlockSize(int count, const LobpcgOptions& options, double n) {
 }
 
 double lobpcgBytes(double n, int count, const LobpcgOptions& options) {
-    return 5.0 * 8.0 * n * double(lobpcgBlockSize(count, options, n)) + kMultigridBytesPerVoxel * n;
+    const double m = lobpcgBlockSize(count, options, n);
+    // Per thread, a chunk's products: [X W P] and [L B, M B] for B = [W P] (3m + 4m columns) at most.
+    const double chunkBytes = 8.0 * double(kChunkRows) * 7.0 * m;
+    const double threads = double(tbb::this_task_arena::max_concurrency());
+    return 3.0 * 8.0 * n * m + 8.0 * n + threads * chunkBytes + kMultigridBytesPerVoxel * n;
 }
 
 void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const LobpcgOptions& options, EigenResult& result,
@@ -65,6 +112,8 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
     const Index k = count;
     const Index m = lobpcgBlockSize(count, options, double(n));
     if (3 * m > n) throw ParameterError("LOBPCG needs a band of more than 3 (k + guard) voxels: use the Lanczos path");
+    const Chunks chunks{n};
+    tbb::enumerable_thread_specific<Scratch> scratch;
 
     // === The preconditioner: one V-cycle of the multigrid on L
     progress.update("multigrid set-up", 0);
@@ -73,24 +122,38 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
     result.multigridLevels = amg.levels();
     result.multigridComplexity = amg.operatorComplexity();
 
-    // === Blocks: X (Ritz vectors), W (preconditioned residuals), P (directions), T1 and T2 (work)
-    MatrixXd X(n, m), W(n, m), P(n, m), T1(n, m), T2(n, m);
+    // === Blocks: X (Ritz vectors), W (residuals, then preconditioned), P (directions). Products with L and M are
+    //     formed a chunk of rows at a time and reduced at once to the Gram matrices they feed.
+    MatrixXd X(n, m), W(n, m), P(n, m);
     {
         std::mt19937_64 random(20011);  // fixed start: deterministic results
         std::uniform_real_distribution<double> uniform(-1.0, 1.0);
         for (Index c = 0; c < m; ++c)
             for (Index i = 0; i < n; ++i) X(i, c) = uniform(random);
     }
-    const auto massTimes = [&](const MatrixXd& A, Index cols, MatrixXd& out) {
-        tbb::parallel_for(tbb::blocked_range<Index>(0, n, 4096), [&](const tbb::blocked_range<Index>& r) {
-            for (Index c = 0; c < cols; ++c)
-                for (Index i = r.begin(); i != r.end(); ++i) out(i, c) = mass(i) * A(i, c);
+
+    // Xᵀ L X, Xᵀ M X, and W = L X − M X Λ with the squared norms of W's and M X's columns, in one sweep; returned
+    // side by side (m × (2m + 2)).
+    VectorXd lambda = VectorXd::Zero(m);
+    const auto residualSweep = [&] {
+        return sumOverChunks(chunks, m, 2 * m + 2, [&](Index r0, Index rows) {
+            Scratch& work = scratch.local();
+            auto LX = view(work.a, rows, m);
+            applyLRows(L, X, r0, LX);
+            auto MX = view(work.b, rows, m);
+            MX.noalias() = mass.segment(r0, rows).asDiagonal() * X.middleRows(r0, rows);
+            MatrixXd part(m, 2 * m + 2);
+            part.leftCols(m).noalias() = X.middleRows(r0, rows).transpose() * LX;
+            part.middleCols(m, m).noalias() = X.middleRows(r0, rows).transpose() * MX;
+            W.middleRows(r0, rows).noalias() = LX - MX * lambda.asDiagonal();
+            part.col(2 * m) = W.middleRows(r0, rows).colwise().squaredNorm().transpose();
+            part.col(2 * m + 1) = MX.colwise().squaredNorm().transpose();
+            return part;
         });
     };
 
     // Rayleigh–Ritz on span of the blocks (X: m, W: a, P: p columns) given their Gram matrices in L and M; returns
-    // the coefficients C of the m lowest Ritz vectors (rows: X, W, P) and their values.
-    VectorXd lambda(m);
+    // the coefficients C of the m lowest Ritz vectors (rows: X, W, P) and sets their values.
     auto rayleighRitz = [&](const MatrixXd& GA, const MatrixXd& GB) {
         Eigen::SelfAdjointEigenSolver<MatrixXd> b(GB);
         const VectorXd& d = b.eigenvalues();
@@ -109,12 +172,14 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
     };
 
     // === Start: Rayleigh–Ritz on X alone
-    applyL(L, X, m, T1);
-    massTimes(X, m, T2);
     {
-        const MatrixXd C = rayleighRitz(gram(X, m, T1, m), gram(X, m, T2, m));
-        T1.noalias() = X * C;
-        X.swap(T1);
+        const MatrixXd sums = residualSweep();
+        const MatrixXd C = rayleighRitz(sums.leftCols(m), sums.middleCols(m, m));
+        forEachChunk(chunks, [&](Index r0, Index rows) {
+            auto x = view(scratch.local().a, rows, m);
+            x.noalias() = X.middleRows(r0, rows) * C;
+            X.middleRows(r0, rows) = x;
+        });
     }
 
     std::vector<double> z(static_cast<std::size_t>(n));  // one V-cycle's output
@@ -124,13 +189,10 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
     for (int iteration = 1;; ++iteration) {
         progress.checkInterrupt();
         // === Residuals R = L X − M X Λ (into W), their norms relative to |λ| ‖M x‖
-        applyL(L, X, m, T1);
-        massTimes(X, m, T2);
+        const MatrixXd sums = residualSweep();
         active.clear();
-        for (Index c = 0; c < m; ++c) {
-            W.col(c) = T1.col(c) - lambda(c) * T2.col(c);
-            residual(c) = W.col(c).norm() / (std::abs(lambda(c)) * T2.col(c).norm());
-        }
+        for (Index c = 0; c < m; ++c)
+            residual(c) = std::sqrt(sums(c, 2 * m)) / (std::abs(lambda(c)) * std::sqrt(sums(c, 2 * m + 1)));
         Index converged = 0;
         while (converged < k && residual(converged) <= options.tolerance) ++converged;
         result.iterations = iteration - 1;
@@ -156,60 +218,82 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
         const Index p = previous > 0 ? a : 0;
         for (Index j = 0; j < p; ++j)
             if (active[std::size_t(j)] != j) P.col(j) = P.col(active[std::size_t(j)]);
-
-        // === W and P made M-orthogonal to X and of unit M-norm: as the residuals shrink, the Gram matrices of raw
-        //     blocks lose the digits that carry them and the iteration stagnates (measured: near 1e-4 here)
-        const auto conditionBlock = [&](MatrixXd& B, Index cols) {
-            if (cols == 0) return;
-            const MatrixXd XtMB = T2.transpose() * B.leftCols(cols);  // T2 = M X; m × cols
-            B.leftCols(cols).noalias() -= X * XtMB;                    // no N-row temporary
-            for (Index c = 0; c < cols; ++c) {
-                const double norm = std::sqrt((B.col(c).array().square() * mass.array()).sum());
-                if (norm > 0) B.col(c) /= norm;
-            }
+        const Index b = a + p;  // columns of B = [W P]
+        // A chunk's rows of M B, into `out`
+        const auto massTimesB = [&](Index r0, Index rows, Eigen::Ref<MatrixXd> out) {
+            out.leftCols(a).noalias() = mass.segment(r0, rows).asDiagonal() * W.block(r0, 0, rows, a);
+            if (p) out.rightCols(p).noalias() = mass.segment(r0, rows).asDiagonal() * P.block(r0, 0, rows, p);
         };
-        conditionBlock(W, a);
-        conditionBlock(P, p);
 
-        // === Gram matrices of S = [X, W, P] in L and M, one work block at a time
-        const Index s = m + a + p;
+        // === W and P made M-orthogonal to X: as the residuals shrink, the Gram matrices of raw blocks lose the
+        //     digits that carry them and the iteration stagnates (measured: near 1e-4 here)
+        const MatrixXd XtMB = sumOverChunks(chunks, m, b, [&](Index r0, Index rows) {
+            auto MB = view(scratch.local().a, rows, b);
+            massTimesB(r0, rows, MB);
+            return MatrixXd(X.middleRows(r0, rows).transpose() * MB);
+        });
+        const VectorXd normsSquared = sumOverChunks(chunks, b, 1, [&](Index r0, Index rows) {
+            const auto x = X.middleRows(r0, rows);
+            W.block(r0, 0, rows, a).noalias() -= x * XtMB.leftCols(a);
+            if (p) P.block(r0, 0, rows, p).noalias() -= x * XtMB.rightCols(p);
+            const auto m_ = mass.segment(r0, rows).array();
+            MatrixXd part(b, 1);
+            part.topRows(a) = (W.block(r0, 0, rows, a).array().square().colwise() * m_).colwise().sum().transpose();
+            if (p) part.bottomRows(p) = (P.block(r0, 0, rows, p).array().square().colwise() * m_).colwise().sum().transpose();
+            return part;
+        });
+        // ... and of unit M-norm, by the diagonal scaling D, applied to their Gram matrices and the Ritz coefficients
+        // rather than to the blocks (no sweep)
+        VectorXd D = VectorXd::Ones(m + b);
+        for (Index c = 0; c < b; ++c)
+            if (normsSquared(c) > 0) D(m + c) = 1.0 / std::sqrt(normsSquared(c));
+
+        // === Gram matrices of S = [X, W, P] in L and M: Sᵀ L B and Sᵀ M B (B = [W P]) in one sweep; the X–X blocks
+        //     came with the residuals
+        const Index s = m + b;
+        const MatrixXd SLB_SMB = sumOverChunks(chunks, s, 2 * b, [&](Index r0, Index rows) {
+            auto LBMB = view(scratch.local().a, rows, 2 * b);  // [L B, M B]
+            applyLRows(L, W, r0, LBMB.leftCols(a));
+            if (p) applyLRows(L, P, r0, LBMB.middleCols(a, p));
+            massTimesB(r0, rows, LBMB.rightCols(b));
+            MatrixXd part(s, 2 * b);
+            part.topRows(m).noalias() = X.middleRows(r0, rows).transpose() * LBMB;
+            part.middleRows(m, a).noalias() = W.block(r0, 0, rows, a).transpose() * LBMB;
+            if (p) part.bottomRows(p).noalias() = P.block(r0, 0, rows, p).transpose() * LBMB;
+            return part;
+        });
         MatrixXd GA(s, s), GB(s, s);
-        // L X is in T1, M X in T2
-        GA.block(0, 0, m, m) = gram(X, m, T1, m);
-        GA.block(m, 0, a, m) = gram(W, a, T1, m);
-        if (p) GA.block(m + a, 0, p, m) = gram(P, p, T1, m);
-        GB.block(0, 0, m, m) = gram(X, m, T2, m);
-        GB.block(m, 0, a, m) = gram(W, a, T2, m);
-        if (p) GB.block(m + a, 0, p, m) = gram(P, p, T2, m);
-        applyL(L, W, a, T1);
-        massTimes(W, a, T2);
-        GA.block(m, m, a, a) = gram(W, a, T1, a);
-        GB.block(m, m, a, a) = gram(W, a, T2, a);
-        if (p) {
-            GA.block(m + a, m, p, a) = gram(P, p, T1, a);
-            GB.block(m + a, m, p, a) = gram(P, p, T2, a);
-            applyL(L, P, p, T1);
-            massTimes(P, p, T2);
-            GA.block(m + a, m + a, p, p) = gram(P, p, T1, p);
-            GB.block(m + a, m + a, p, p) = gram(P, p, T2, p);
-        }
+        GA.block(0, 0, m, m) = sums.leftCols(m);
+        GB.block(0, 0, m, m) = sums.middleCols(m, m);
+        GA.block(m, 0, b, m) = SLB_SMB.block(0, 0, m, b).transpose();
+        GB.block(m, 0, b, m) = SLB_SMB.block(0, b, m, b).transpose();
+        GA.block(m, m, b, b) = SLB_SMB.block(m, 0, b, b);
+        GB.block(m, m, b, b) = SLB_SMB.block(m, b, b, b);
         GA = GA.triangularView<Eigen::Lower>();
         GB = GB.triangularView<Eigen::Lower>();
         GA = GA.selfadjointView<Eigen::Lower>();
         GB = GB.selfadjointView<Eigen::Lower>();
+        GA = D.asDiagonal() * GA * D.asDiagonal();
+        GB = D.asDiagonal() * GB * D.asDiagonal();
 
-        // === Rayleigh–Ritz; P ← W C_W + P C_P, X ← X C_X + P (blocks swapped, not copied)
-        const MatrixXd C = rayleighRitz(GA, GB);
-        T2.leftCols(m).noalias() = W.leftCols(a) * C.middleRows(m, a);
-        if (p) T2.leftCols(m).noalias() += P.leftCols(p) * C.middleRows(m + a, p);
-        T1.noalias() = X * C.topRows(m);
-        T1 += T2;
-        X.swap(T1);
-        // The next P: one direction per Ritz vector, in the order of X's columns.
-        P.swap(T2);
+        // === Rayleigh–Ritz; P ← W C_W + P C_P, X ← X C_X + P, row by row (C in terms of the unscaled W and P)
+        const MatrixXd C = D.asDiagonal() * rayleighRitz(GA, GB);
+        forEachChunk(chunks, [&](Index r0, Index rows) {
+            Scratch& work = scratch.local();
+            auto direction = view(work.a, rows, m);
+            direction.noalias() = W.block(r0, 0, rows, a) * C.middleRows(m, a);
+            if (p) direction.noalias() += P.block(r0, 0, rows, p) * C.bottomRows(p);
+            auto x = view(work.b, rows, m);
+            x.noalias() = X.middleRows(r0, rows) * C.topRows(m);
+            x += direction;
+            X.middleRows(r0, rows) = x;
+            P.middleRows(r0, rows) = direction;
+        });
         previous = m;
     }
 
+    W.resize(0, 0);  // before the vectors are copied out: the peak stays at three blocks
+    P.resize(0, 0);
     result.values = lambda.head(k);
     result.vectors = X.leftCols(k);
 }
