@@ -3,8 +3,11 @@
 #include <malloc.h>
 
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
 
 #include "cli_run.h"
 #include "gpisvdb/band/build_band.h"
@@ -201,5 +204,137 @@ TEST_CASE("memory: the band command's estimate (its size from the samples, its b
         INFO(voxels << " voxels, estimated " << estimatedVoxels << "; peak " << measured << " bytes, estimated " << estimate);
         CHECK(estimatedVoxels == Approx(voxels).epsilon(0.25));
         checkWithin15Percent(estimate, measured);
+    }
+}
+
+namespace {
+
+/// `args` in a child gpisvdb with `--report R.json`, required to succeed: its report's memory.stages.<stage>.
+nlohmann::json childStage(const std::string& args, const std::string& stage) {
+    const std::string json = temp("memory_stage.json");
+    const Run r = run(args + " --report " + json);
+    INFO(args << ": " << r.err);
+    REQUIRE(r.code == 0);
+    return nlohmann::json::parse(std::ifstream(json))["memory"]["stages"][stage];
+}
+
+/// The stage's estimate within 15 % of the peak measured over it, the peak the stage's own (not the run's).
+void checkStage(const nlohmann::json& stage) {
+    const double estimate = stage["estimate_bytes"], measured = stage["measured_peak_bytes"];
+    INFO("estimate " << estimate << ", measured " << measured << ": " << stage.dump());
+    CHECK(stage["stage_only"] == true);
+    checkWithin15Percent(estimate, measured);
+}
+
+/// Bunny bands (σ_rel 2) at two voxel sizes, as .vdb files (mean, mu, …) for the mesh and render commands.
+const std::vector<std::string>& bunnyBands() {
+    static const std::vector<std::string> files = [] {
+        std::vector<std::string> out;
+        for (const char* h : {"0.25", "0.15"}) {
+            out.push_back(temp(std::string("memory_band_") + h + ".vdb"));
+            const Run r = run("band " + gpisvdb::test::dataPath("bunny.obj") + " --sigma 2 --voxel-size " + h + " --quiet -o " + out.back());
+            if (r.code != 0) throw std::runtime_error("band: " + r.err);
+        }
+        return out;
+    }();
+    return files;
+}
+
+}  // namespace
+
+TEST_CASE("memory: the mesh and evaluate commands' estimates of their stages are within 15 % of the peaks measured over them, on two sizes", "[memory][cli]") {
+    for (const std::string& vdb : bunnyBands())
+        for (const char* format : {".ply", ".vtp"})
+            checkStage(childStage("mesh " + vdb + " --grid mu --grid normal --quiet -o " + temp(std::string("memory_mesh") + format), "mesh"));
+    // Query points in the bunny's box: the evaluation holds 176 B per point (values, Morton order) beside them
+    for (int n : {20000, 100000}) {
+        std::ostringstream points;
+        for (int i = 0; i < n; ++i) points << (i % 97) * 0.1 - 4.8 << ' ' << (i % 89) * 0.1 << ' ' << (i % 71) * 0.1 - 3.5 << '\n';
+        const std::string at = temp("memory_points.xyz", points.str());
+        checkStage(childStage("evaluate " + gpisvdb::test::dataPath("bunny.obj") + " --sigma 2 --at " + at + " --quiet -o " +
+                                  temp("memory_values.csv"),
+                              "evaluate"));
+    }
+}
+
+TEST_CASE("memory: the distance command's estimate (k-d tree, values, dense grid, level set) is within 15 % of its stage's peak, on two sizes", "[memory][cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
+    for (const char* H : {"0.2", "0.15"})
+        checkStage(childStage("distance " + bunny + " --alpha 20 --level 0.1 --sigma 2 --voxel-size 0.4 --grid-voxel-size " +
+                                  std::string(H) + " --quiet -o " + temp("memory_distance.vdb"),
+                              "distance"));
+}
+
+TEST_CASE("memory: the render command's estimate (surface, window, OpenGL context) is within 15 % of its stage's peak, on two sizes", "[memory][cli][render]") {
+    const std::vector<std::string>& bands = bunnyBands();
+    const std::pair<std::string, std::string> runs[] = {{bands[0], "640,520"}, {bands[1], "800,600"}};  // not the fit's sizes
+    for (const auto& [vdb, size] : runs)
+        checkStage(childStage("render " + vdb + " --grid mu --size " + size + " --quiet -o " + temp("memory_render.png"), "render"));
+}
+
+TEST_CASE("memory: mesh, render, evaluate, distance and green with the incomplete Cholesky refuse beyond --max-memory before they allocate, naming the setting that fits, and write nothing", "[memory][cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), vdb = bunnyBands()[0];
+    std::ostringstream points;
+    for (int i = 0; i < 300000; ++i) points << (i % 97) * 0.1 - 4.8 << " 5 0\n";
+    const std::string at = temp("memory_many_points.xyz", points.str());
+    const std::string out = temp("memory_refused.out"), png = temp("memory_refused.png"), mesh = temp("memory_refused.ply");
+    const std::string dist = temp("memory_refused.vdb");
+    // A limit half-way through a stage, from a run that fits: refused with the setting that fits, not "raise it"
+    const auto halfWay = [](const std::string& args, const std::string& stage, const std::string& output) {
+        const nlohmann::json fits = childStage(args + " --quiet -o " + output, stage);
+        std::filesystem::remove(output);
+        const double baseline = fits["baseline_bytes"], estimate = fits["estimate_bytes"];
+        return " --max-memory " + std::to_string(std::llround(baseline + 0.5 * (estimate - baseline)));
+    };
+    const std::string meshArgs = "mesh " + vdb + " --grid mu";
+    const std::string icArgs = "green " + bunny + " --source 0.5,6,1 --preconditioner ic --sigma 2 --voxel-size 0.25";
+    struct Case {
+        std::string args, output, expect;
+    };
+    const Case cases[] = {
+        // 300 000 points need ≈ 53 MB beside the ≈ 70 MB the process holds
+        {"evaluate " + bunny + " --sigma 2 --at " + at + " -o " + out + " --max-memory 100M", out,
+         "split the query points (--at) into files of at most"},
+        // 8192² pixels need ≈ 5.4 GB
+        {"render " + vdb + " --grid mu --size 8192,8192 -o " + png + " --max-memory 1G", png, "use --size"},
+        // 10 M grid points need ≈ 80 MB (values and grid) beside the ≈ 70 MB the process holds
+        {"distance " + bunny + " --alpha 20 --sigma 2 --voxel-size 0.4 --grid-voxel-size 0.05 -o " + dist + " --max-memory 100M", dist,
+         "use a grid voxel size (--grid-voxel-size) of"},
+        // The surface's ≈ 7 MB: a limit half-way through them, from a run that fits
+        {meshArgs + " -o " + mesh + halfWay(meshArgs, "mesh", mesh), mesh, "rebuild the band with a voxel size (--voxel-size) of"},
+        // The incomplete Cholesky's factor: ≈ 12 MB at this size
+        {icArgs + " -o " + dist + halfWay(icArgs, "green", dist), dist, "the Green's function solve needs about"},
+        {"mesh " + vdb + " --grid mu -o " + mesh + " --max-memory 20M", mesh, "raise it"},
+    };
+    for (const Case& c : cases) {
+        const Run r = run(c.args + " --quiet");
+        INFO(c.args << "\nstderr: " << r.err);
+        CHECK(r.code == 1);
+        CHECK(lines(r.err) == 1);
+        CHECK_THAT(r.err, Catch::Contains("more than the memory limit (--max-memory) allows"));
+        CHECK_THAT(r.err, Catch::Contains(c.expect));
+        CHECK_FALSE(leftovers(c.output));
+    }
+}
+
+TEST_CASE("memory: green with the incomplete Cholesky and regress estimate their stages (the factor, the posterior's vectors) within 15 % of the peaks measured over them, on two sizes", "[memory][cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), vdb = temp("memory_ic.vdb");
+    std::ostringstream data;  // every 10th vertex of the bunny, on the shape, with its height as the value
+    std::ifstream obj(bunny);
+    int vertex = 0;
+    for (std::string line; std::getline(obj, line);)
+        if (line.rfind("v ", 0) == 0 && vertex++ % 10 == 0) {
+            std::istringstream v(line.substr(2));
+            double x, y, z;
+            v >> x >> y >> z;
+            data << x << ',' << y << ',' << z << ',' << y << ",0.1\n";
+        }
+    const std::string csv = temp("memory_regress.csv", data.str());
+    for (const char* h : {"0.4", "0.25"}) {
+        checkStage(childStage("green " + bunny + " --source 0.5,6,1 --preconditioner ic --sigma 2 --voxel-size " + std::string(h) +
+                                  " --quiet -o " + vdb,
+                              "green"));
+        checkStage(childStage("regress " + bunny + " --data " + csv + " -k 20 --sigma 2 --voxel-size " + std::string(h) + " --quiet -o " + vdb,
+                              "regression"));
     }
 }

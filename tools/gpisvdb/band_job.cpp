@@ -17,20 +17,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-/// "8G", "512M", "1e9": bytes.
-double parseBytes(const std::string& s) {
-    char* end = nullptr;
-    double v = std::strtod(s.c_str(), &end);
-    const std::string unit(end);
-    if (unit == "K" || unit == "k") v *= 1024.0;
-    else if (unit == "M" || unit == "m") v *= 1024.0 * 1024.0;
-    else if (unit == "G" || unit == "g") v *= 1024.0 * 1024.0 * 1024.0;
-    else if (!unit.empty() || end == s.c_str())
-        throw ParameterError("--max-memory: expected bytes like 8G, 512M or 1e9, got '" + s + "'");
-    if (!(v > 0) || !std::isfinite(v)) throw ParameterError("--max-memory must be > 0");
-    return v;
-}
-
 /// Documented accuracy limits (docs/band.md#warnings).
 constexpr double kDocumentedBeta = 6;           // docs/model.md
 constexpr int kDocumentedQmc = 512;             // docs/band.md, μ and T
@@ -112,14 +98,6 @@ BandCommand startBandCommand(const std::string& input, const std::string& output
     return c;
 }
 
-void commitReport(AtomicOutput& file, const nlohmann::json& report) {
-    std::ofstream out(file.tempPath());
-    out << report.dump(2) << "\n";
-    out.close();
-    if (!out) throw OutputError(file.tempPath() + ": cannot write the report");
-    file.commit();
-}
-
 void checkSolverFlags(const PcgOptions& options) {
     if (!(options.tolerance > 0) || !std::isfinite(options.tolerance))
         throw ParameterError("--tolerance must be a finite number > 0 (a relative residual, e.g. 1e-6)");
@@ -155,29 +133,12 @@ nlohmann::json solverReport(const PcgResult& r, const PcgOptions& options) {
     return report;
 }
 
-nlohmann::json memoryStageReport(const MemoryEstimate& estimate, double measuredPeak, bool stageOnly) {
-    nlohmann::json parts = nlohmann::json::object();
-    for (const auto& [name, bytes] : estimate.parts) parts[name] = bytes;
-    return {{"baseline_bytes", estimate.baselineBytes}, {"parts_bytes", parts}, {"estimate_bytes", estimate.peakBytes()},
-            {"measured_peak_bytes", measuredPeak}, {"stage_only", stageOnly},
-            {"estimate_error", measuredPeak > 0 ? estimate.peakBytes() / measuredPeak - 1 : 0.0}};
-}
-
 MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::vector<std::pair<std::string, double>> parts) {
-    MemoryEstimate e;
-    e.baselineBytes = settledResidentBytes();
-    e.parts = std::move(parts);
-    if (e.peakBytes() <= job.maxMemory) return e;
-    const double available = job.maxMemory - e.baselineBytes;
-    const std::string need = "the " + stage + " needs about " + numberText(e.stageBytes() / 1e6) + " MB beside the " +
-                             numberText(e.baselineBytes / 1e6) + " MB this process holds (libraries, input, band)";
-    if (available <= 0)
-        throw MemoryLimitError(need + ", more than the memory limit (DefaultBandOptions::maxMemory) allows: raise it",
-                               {"DefaultBandOptions::maxMemory"});
-    throw MemoryLimitError(need + ", more than the memory limit (DefaultBandOptions::maxMemory) allows: use a voxel size "
-                               "(BandOptions::voxelSize) of " +
-                               numberText(job.options.voxelSize * std::cbrt(e.stageBytes() / available) * 1.1) + " or larger",
-                           {"DefaultBandOptions::maxMemory", "BandOptions::voxelSize"});
+    // The stage's bytes go as h⁻³ with the band's voxels
+    const double h = job.options.voxelSize;
+    return estimateStageWithin(job.maxMemory, stage, "libraries, input, band", std::move(parts), [h](double need, double available) {
+        return "use a voxel size (--voxel-size) of " + numberText(h * std::cbrt(need / available) * 1.1) + " or larger";
+    });
 }
 
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {

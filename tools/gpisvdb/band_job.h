@@ -12,6 +12,7 @@
 #include "gpisvdb/output/write_vdb.h"
 #include "gpisvdb/solve/pcg.h"
 #include "gpisvdb/stencil/resolution.h"
+#include "memory_stage.h"
 
 namespace gpisvdb::cli {
 
@@ -57,9 +58,6 @@ struct BandCommand {
 };
 BandCommand startBandCommand(const std::string& input, const std::string& output, const BandFlags& flags);
 
-/// Writes the JSON report into its temporary file and renames it into place.
-void commitReport(AtomicOutput& file, const nlohmann::json& report);
-
 /// Throws a ParameterError for --tolerance outside [kMinPcgTolerance, ∞) or --max-iterations < 1.
 void checkSolverFlags(const PcgOptions& options);
 
@@ -69,11 +67,6 @@ void requireConverged(const PcgResult& result, const PcgOptions& options);
 /// The report's `solver` section: method, iterations, restarts, refinements, inner_iterations, relative_residual
 /// (of the double solution when refined), float_residual (of the float grid written) and tolerance.
 nlohmann::json solverReport(const PcgResult& result, const PcgOptions& options);
-
-/// A report's `memory.stages.<stage>`: baseline_bytes, the parts' bytes, estimate_bytes (their sum with the baseline),
-/// measured_peak_bytes, stage_only (false: the kernel kept the peak from before the stage, so it may be the
-/// band's) and estimate_error (estimate / measured − 1).
-nlohmann::json memoryStageReport(const MemoryEstimate& estimate, double measuredPeak, bool stageOnly);
 
 /// The estimate of a stage that allocates `parts` (bytes) on the band: the settled resident set now as its
 /// baseline. Throws MemoryLimitError, before the stage allocates, when baseline + parts exceed the job's memory

@@ -13,11 +13,6 @@
 
 namespace gpisvdb::cli {
 
-namespace {
-/// Bytes per grid point: the values while they are computed, the dense OpenVDB grid, and its level-set copy.
-constexpr double kBytesPerPoint = 16;
-}  // namespace
-
 void addDistance(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("distance", "Smoothed distance to the GPIS on a grid covering it (paper Eq. 31), as a .vdb");
     struct Args {
@@ -59,8 +54,22 @@ void addDistance(CLI::App& app, Action& action) {
             const BandJob& job = run.job;
             const Band& band = job.result.band;
 
-            // === The distance grid
-            a->distance.maxPoints = std::size_t(job.maxMemory / kBytesPerPoint);
+            // === The distance grid: its memory (the k-d tree over the band's voxels, the values, the dense grid and
+            //     the level set's copy; docs/memory.md#distance) estimated and refused before any of it is allocated
+            std::vector<std::pair<std::string, double>> parts = smoothedDistanceBytes(band, a->distance, !std::isnan(a->level));
+            double treeBytes = 0;  // the parts that do not shrink with a coarser grid
+            for (const auto& [name, bytes] : parts)
+                if (name.rfind("kd_tree", 0) == 0) treeBytes += bytes;
+            const double H = smoothedDistanceGridShape(band, a->distance).voxelSize, h = job.options.voxelSize;
+            const MemoryEstimate memory = estimateStageWithin(
+                job.maxMemory, "distance grid", "libraries, input, band", std::move(parts), [&](double need, double available) {
+                    if (available > treeBytes && need > treeBytes)  // the grid's bytes go as H⁻³
+                        return "use a grid voxel size (--grid-voxel-size) of " +
+                               numberText(H * std::cbrt((need - treeBytes) / (available - treeBytes)) * 1.05) + " or larger";
+                    return "use a voxel size (--voxel-size) of " + numberText(h * std::cbrt(need / available) * 1.1) +
+                           " or larger (the tree over the band's voxels alone does not fit)";
+                });
+            const bool stageOnly = resetPeakResident();
             const auto tDistance = Clock::now();
             const SmoothedDistanceResult r = smoothedDistanceGrid(band, a->distance, run.progress);
             const double secondsDistance = std::chrono::duration<double>(Clock::now() - tDistance).count();
@@ -85,6 +94,7 @@ void addDistance(CLI::App& app, Action& action) {
             if (!std::isnan(a->level)) meta.insertMeta("distance_level", openvdb::DoubleMetadata(a->level));
             writeVdb(grids, run.out->tempPath(), meta, a->flags.vdb);
             if (meshOut) writeMesh(mesh, meshOut->tempPath(), meshFormatOf(a->mesh));
+            const double peak = peakResidentBytes();
             run.out->commit();
             if (meshOut) meshOut->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
@@ -97,6 +107,7 @@ void addDistance(CLI::App& app, Action& action) {
                                       {"mean_terms_per_point", r.meanTerms}, {"band_voxels", band.size()}};
                 if (!std::isnan(a->level)) report["distance"]["level"] = a->level;
                 if (meshOut) report["distance"]["mesh_triangles"] = mesh.triangles.size();
+                report["memory"]["stages"] = {{"distance", memoryStageReport(memory, peak, stageOnly)}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"distance", secondsDistance}, {"total", total}};
                 report["outputs"] = a->mesh.empty() ? nlohmann::json{a->output} : nlohmann::json{a->output, a->mesh};
                 commitReport(*run.report, report);

@@ -8,6 +8,8 @@
 #include "common.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/kacrice/kac_rice.h"
+#include "gpisvdb/model/barnes_hut_gpis.h"
+#include "memory_stage.h"
 
 namespace gpisvdb::cli {
 
@@ -48,6 +50,7 @@ void addEvaluate(CLI::App& app, Action& action) {
         ModelFlags flags;
         double iso = std::numeric_limits<double>::quiet_NaN();  // unset: the model's own level
         int qmc = 512;
+        StageFlags stage;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
@@ -56,6 +59,7 @@ void addEvaluate(CLI::App& app, Action& action) {
     addModelFlags(*cmd, a->flags, true);
     cmd->add_option("--iso", a->iso, "iso-value u of the surface phi = u, for mu and T (default: 0.5 winding, 0 regression)");
     cmd->add_option("--qmc", a->qmc, "QMC points S for mu and T (>= 1)")->capture_default_str();
+    addStageFlags(*cmd, a->stage);
     cmd->footer("Columns: x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33 (c: covariance of\n"
                 "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row), then the Kac-Rice surface\n"
                 "density mu and tangent tensor T: mu,Txx,Txy,Txz,Tyy,Tyz,Tzz (world units^-1).\n"
@@ -67,9 +71,26 @@ void addEvaluate(CLI::App& app, Action& action) {
             const std::vector<Vec3d> xs = readQueryPoints(a->at);
             if (!std::isnan(a->iso) && !std::isfinite(a->iso)) throw ParameterError("--iso must be finite");
             const QmcRule rule(a->qmc);
+            const double limit = memoryLimit(a->stage);
             AtomicOutput out(a->output);
+            std::unique_ptr<AtomicOutput> reportOut;
+            if (!a->stage.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->stage.report);
             const LoadedModel m = loadModel(data, modelOptions(a->flags));
             const double iso = std::isnan(a->iso) ? m.model->naturalIso() : a->iso;
+            // The evaluation's memory (docs/memory.md#evaluate): a ValueGradient per point (mean and covariance in
+            // double, 160 B) and, for the Barnes–Hut model, its Morton order (a 64-bit key and a 32-bit index, 16 B).
+            // The points themselves (24 B each) are read before, in the baseline.
+            const bool barnesHut = dynamic_cast<const BarnesHutGpis*>(m.model.get()) != nullptr;
+            const double perPoint = double(sizeof(ValueGradient)) + (barnesHut ? 16.0 : 0.0), n = double(xs.size());
+            std::vector<std::pair<std::string, double>> parts = {{"values", double(sizeof(ValueGradient)) * n}};
+            if (barnesHut) parts.emplace_back("morton_order", 16.0 * n);
+            const MemoryEstimate memory =
+                estimateStageWithin(limit, "evaluation of " + std::to_string(xs.size()) + " points", "libraries, input, model, points",
+                                    std::move(parts), [&](double, double available) {
+                                        return "split the query points (--at) into files of at most " +
+                                               numberText(std::floor(available / perPoint)) + " points";
+                                    });
+            const bool stageOnly = resetPeakResident();
             const auto values = m.model->evaluate(xs, makeProgress(a->flags.quiet));
             std::ofstream csv(out.tempPath());
             csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz\n"
@@ -88,7 +109,14 @@ void addEvaluate(CLI::App& app, Action& action) {
             }
             csv.close();
             if (!csv) throw OutputError(a->output + ": writing failed (disk full?)");
+            const double peak = peakResidentBytes();
             out.commit();
+            if (reportOut) {
+                nlohmann::json report = stageReport("evaluate", memoryStageReport(memory, peak, stageOnly));
+                report["points"] = xs.size();
+                report["outputs"] = {a->output};
+                commitReport(*reportOut, report);
+            }
         };
     });
 }

@@ -47,22 +47,19 @@ void addGreen(CLI::App& app, Action& action) {
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
             const BandJob& job = run.job;
             const Band& band = job.result.band;
-            // The operator's and the solve's memory (Jacobi and multigrid; IC's factor is not estimated): estimated
-            // and refused before they allocate, measured over them (docs/memory.md). The matrix-free L is what
-            // the PCG applies; the multigrid's set-up assembles L for hypre and keeps only its hierarchy.
+            // The operator's and the solve's memory: estimated and refused before they allocate, measured over them
+            // (docs/memory.md). The matrix-free L is what the PCG applies; the multigrid's set-up assembles L for
+            // hypre and keeps only its hierarchy; the incomplete Cholesky assembles L and keeps its factor.
             const Preconditioner preconditioner =
                 resolvePreconditioner(a->solver.preconditioner, band.size(), /*assemblable: L*/ true);
-            const bool estimated = preconditioner != Preconditioner::IncompleteCholesky;
-            MemoryEstimate memory;
-            if (estimated) {
-                std::vector<std::pair<std::string, double>> parts = {
-                    {"laplacian", laplacianOperatorBytes(band.size())},
-                    {"pcg", pcgWorkBytes(band.size(), a->solver)},
-                    {"rhs_and_solution", 8.0 * double(band.size())}};
-                if (preconditioner == Preconditioner::Multigrid)
-                    parts.emplace_back("multigrid", multigridBytes(band.size()));
-                memory = estimateStage(job, "Green's function solve", std::move(parts));
-            }
+            std::vector<std::pair<std::string, double>> parts = {
+                {"laplacian", laplacianOperatorBytes(band.size())},
+                {"pcg", pcgWorkBytes(band.size(), a->solver)},
+                {"rhs_and_solution", 8.0 * double(band.size())}};
+            if (preconditioner == Preconditioner::Multigrid) parts.emplace_back("multigrid", multigridBytes(band.size()));
+            if (preconditioner == Preconditioner::IncompleteCholesky)
+                parts.emplace_back("incomplete_cholesky", incompleteCholeskyBytes(band.size()));
+            const MemoryEstimate memory = estimateStage(job, "Green's function solve", std::move(parts));
             const bool stageOnly = resetPeakResident();
             const auto tOps = Clock::now();
             const LaplacianOperator L(band);
@@ -87,7 +84,7 @@ void addGreen(CLI::App& app, Action& action) {
             if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["solver"] = solverReport(g.solver, a->solver);
-                if (estimated) report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
+                report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
                 report["green"] = {{"source", a->source}, {"source_voxel", {y.x(), y.y(), y.z()}},
                                    {"source_index", g.sourceIndex}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps},

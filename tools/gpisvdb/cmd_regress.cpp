@@ -73,10 +73,16 @@ void addRegress(CLI::App& app, Action& action) {
             nlohmann::json memoryStage;
             const EigenResult e = runSpectrum(job, a->eigen, run.progress, &memoryStage);
             const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
+            // The regression's own vectors beside the eigenpairs: estimated and refused before they allocate,
+            // measured over them (docs/memory.md#regression)
+            const MemoryEstimate regressionMemory =
+                estimateStage(job, "regression", regressionBytes(band.size(), points, int(e.values.size()), ro));
+            const bool regressionOnly = resetPeakResident();
             const auto tRegress = Clock::now();
             run.progress.update("regression", 0);
             const RegressionResult r = gpRegression(band, e, points, ro, run.progress.interruptOnly());
             run.progress.update("regression", 1);
+            const double regressionPeak = peakResidentBytes();
             const double secondsRegress = std::chrono::duration<double>(Clock::now() - tRegress).count();
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             meta.insertMeta("regression_nu", openvdb::DoubleMetadata(ro.kernel.nu));
@@ -93,7 +99,8 @@ void addRegress(CLI::App& app, Action& action) {
             if (run.report) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["spectrum"] = spectrumReport(e);
-                report["memory"]["stages"] = {{"spectrum", memoryStage}};
+                report["memory"]["stages"] = {{"spectrum", memoryStage},
+                                              {"regression", memoryStageReport(regressionMemory, regressionPeak, regressionOnly)}};
                 const std::vector<double> meanAt(r.meanAtData.data(), r.meanAtData.data() + r.meanAtData.size());
                 const std::vector<double> varAt(r.varianceAtData.data(), r.varianceAtData.data() + r.varianceAtData.size());
                 report["regression"] = {{"data", a->data},

@@ -1,7 +1,5 @@
 // gpisvdb render FILE.vdb --grid NAME -o OUT.png: a picture of a grid on the mean surface (and on a slice), with a
 // colour bar and shortest paths, rendered offscreen by VTK.
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -13,14 +11,22 @@
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/output/paths.h"
 #include "gpisvdb/output/render.h"
+#include "memory_stage.h"
 #include "vdb_file.h"
 
 namespace gpisvdb::cli {
 
 namespace {
 constexpr double kMinPanelPixels = 64, kMaxPanelPixels = 8192;
-/// Offscreen rendering: 8 multisamples of RGBA and depth (64 bytes), the resolved window and the PNG rows.
+/// Offscreen rendering, bytes per pixel: 8 multisamples of RGBA and depth (64 bytes), the resolved window and the
+/// PNG rows (measured: 83–88, docs/memory.md#render).
 constexpr double kRenderBytesPerPixel = 80;
+/// What a render adds whatever its size, bytes: the OpenGL driver's state (Mesa's llvmpipe, its threads and
+/// compiled shaders), VTK's render window, colour bar and text; measured (docs/memory.md#render).
+constexpr double kRenderContextBytes = 90e6;
+/// What VTK and the driver hold per surface vertex, bytes: the normals filter's output, the mapper's colours and
+/// the vertex and index buffers the driver keeps; measured (docs/memory.md#render).
+constexpr double kRenderBytesPerVertex = 820;
 }  // namespace
 
 void addRender(CLI::App& app, Action& action) {
@@ -31,6 +37,7 @@ void addRender(CLI::App& app, Action& action) {
         int threads = 0;
         std::vector<double> range, view{-35, 35}, size{800, 650};
         double iso = std::numeric_limits<double>::quiet_NaN();
+        StageFlags stage;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("FILE", a->input, "a .vdb written by gpisvdb")->required();
@@ -48,6 +55,7 @@ void addRender(CLI::App& app, Action& action) {
     cmd->add_option("--title", a->title, "title above the picture (default: the grid's name)");
     cmd->add_option("--threads", a->threads, "worker threads (0 = all cores)")->capture_default_str();
     cmd->add_flag("--quiet", a->quiet, "no summary line");
+    addStageFlags(*cmd, a->stage);
     cmd->footer("Starts its own Xvfb when no X display answers (tools/setup installs it).\n"
                 "Examples:\n  gpisvdb render green.vdb --grid green --log -o green.png\n"
                 "  gpisvdb render geo.vdb --grid geodesic --paths path.vtp --slice z=0.4 -o geo.png");
@@ -76,6 +84,7 @@ void addRender(CLI::App& app, Action& action) {
                     throw ParameterError("--size: picture panels must be whole numbers of 64 to 8192 pixels wide and high, got " +
                                          numberText(a->size[0]) + "," + numberText(a->size[1]));
             if (std::filesystem::path(a->output).extension() != ".png") throw ParameterError(a->output + ": the picture is written as .png");
+            const double limit = memoryLimit(a->stage);
             const VdbFile file = VdbFile::read(a->input);
             const auto grid = file.floatGrid(a->grid);
             bool hasMean = false;
@@ -85,11 +94,43 @@ void addRender(CLI::App& app, Action& action) {
             std::vector<std::vector<Vec3d>> paths;
             if (!a->paths.empty()) paths = readPolylines(a->paths);
             AtomicOutput out(a->output);
+            std::unique_ptr<AtomicOutput> reportOut;
+            if (!a->stage.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->stage.report);
+
+            // === Memory (docs/memory.md#render): the mean surface with the grid sampled on it and VTK's copy, the
+            //     offscreen window (8 samples of colour and depth per pixel) and the picture, per panel, and the
+            //     OpenGL context; estimated and refused before any of it is allocated
+            const double iso = std::isnan(a->iso) ? file.iso() : a->iso;
+            const int panelCount = int(hasMean) + int(bool(slice));
+            const double pixels = a->size[0] * a->size[1] * double(panelCount);
+            std::vector<std::pair<std::string, double>> parts;
+            double vertices = 0;
+            if (hasMean) parts = meanSurfaceBytes(*file.floatGrid("mean"), iso, 1, true, &vertices);
+            parts.emplace_back("vtk_surface", vertices * kRenderBytesPerVertex);
+            parts.emplace_back("gl_context", kRenderContextBytes);
+            double fixedBytes = 0;  // what a smaller picture does not shrink
+            for (const auto& p : parts) fixedBytes += p.second;
+            parts.emplace_back("window", pixels * kRenderBytesPerPixel);
+            const double h = grid->voxelSize()[0];
+            const MemoryEstimate memory = estimateStageWithin(
+                limit, "render", "libraries, the .vdb file", std::move(parts), [&](double, double available) {
+                    const double window = pixels * kRenderBytesPerPixel, surface = fixedBytes - kRenderContextBytes;
+                    if (available > fixedBytes) {  // the window's bytes go as the pixels
+                        const double scale = std::sqrt((available - fixedBytes) / window) * 0.95;
+                        return "use --size " + numberText(std::floor(a->size[0] * scale)) + "," +
+                               numberText(std::floor(a->size[1] * scale)) + " or smaller";
+                    }
+                    if (available > kRenderContextBytes + window)  // the surface's go as h⁻² to h⁻³
+                        return "rebuild the band with a voxel size (--voxel-size) of " +
+                               numberText(h * std::sqrt(surface / (available - kRenderContextBytes - window)) * 1.05) + " or larger";
+                    return "raise it (the renderer alone holds about " + numberText(kRenderContextBytes / 1e6) + " MB)";
+                });
+            const bool stageOnly = resetPeakResident();
 
             SurfaceMesh surface;
             std::vector<RenderPanel> panels;
             if (hasMean) {
-                surface = meanSurface(*file.floatGrid("mean"), std::isnan(a->iso) ? file.iso() : a->iso);
+                surface = meanSurface(*file.floatGrid("mean"), iso);
                 if (surface.triangles.empty()) throw InputError(a->input + ": the mean field never crosses the iso-value in the band");
                 sampleAtVertices(surface, *grid);
                 RenderPanel p = base;
@@ -114,22 +155,18 @@ void addRender(CLI::App& app, Action& action) {
                 if (lo < hi)
                     for (RenderPanel& p : panels) p.range = {lo, hi};
             }
-            // === Memory: the offscreen window (8 samples of colour and depth per pixel) and the picture, per panel
-            const double pixels = a->size[0] * a->size[1] * double(panels.size());
-            const double budget = 0.5 * double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
-            if (pixels * kRenderBytesPerPixel > budget) {
-                const double scale = std::sqrt(budget / (pixels * kRenderBytesPerPixel)) * 0.95;
-                throw ParameterError("--size " + numberText(a->size[0]) + "," + numberText(a->size[1]) + " with " +
-                                     std::to_string(panels.size()) + " panels needs about " +
-                                     numberText(pixels * kRenderBytesPerPixel / 1e9) + " GB, more than half the RAM (" +
-                                     numberText(budget / 1e9) + " GB): use --size " + numberText(std::floor(a->size[0] * scale)) +
-                                     "," + numberText(std::floor(a->size[1] * scale)) + " or smaller");
-            }
             RenderOptions o;
             o.azimuth = a->view[0], o.elevation = a->view[1];
             o.panelWidth = int(a->size[0]), o.panelHeight = int(a->size[1]);
             renderPng(panels, o, out.tempPath(), makeProgress(true));
+            const double peak = peakResidentBytes();
             out.commit();
+            if (reportOut) {
+                nlohmann::json report = stageReport("render", memoryStageReport(memory, peak, stageOnly));
+                report["render"] = {{"panels", panels.size()}, {"pixels", pixels}, {"surface_vertices", surface.vertices.size()}};
+                report["outputs"] = {a->output};
+                commitReport(*reportOut, report);
+            }
             if (!a->quiet) std::cerr << "render: " << a->grid << " -> " << a->output << "\n";
         };
     });

@@ -34,7 +34,12 @@ std::string VdbFile::names() const {
 
 openvdb::GridBase::Ptr VdbFile::grid(const std::string& name) const {
     for (const auto& g : *grids)
-        if (g->getName() == name) return g;
+        if (g->getName() == name) {
+            // Read now, not at first use: OpenVDB opens files with delayed loading, and a grid read in the middle of
+            // a stage would add to it what its estimate counts in the baseline (docs/memory.md#mesh)
+            g->baseTree().readNonresidentBuffers();
+            return g;
+        }
     throw InputError(path + ": no grid '" + name + "' (the file has: " + names() + ")");
 }
 

@@ -14,7 +14,7 @@ struct VdbFile {
 
     /// Throws InputError when the file is missing or not an OpenVDB file.
     static VdbFile read(const std::string& path);
-    /// The grid called `name`; throws InputError naming the grids the file has.
+    /// The grid called `name`, its values read in; throws InputError naming the grids the file has.
     openvdb::GridBase::Ptr grid(const std::string& name) const;
     /// The float grid called `name`; throws InputError when missing or of another type.
     openvdb::FloatGrid::Ptr floatGrid(const std::string& name) const;

@@ -86,4 +86,11 @@ const double kMultigridBytesPerVoxel = 440;
 
 double multigridBytes(std::size_t n) { return kMultigridBytesPerVoxel * double(n); }
 
+// Measured: the green stage's peak with --preconditioner ic over its baseline, less the operator, the PCG and the
+// right-hand side counted above, 565–572 bytes per voxel on the bunny (σ_rel 2, h 0.25; σ_rel 1, h 0.1 and 0.07:
+// 20 k, 167 k and 486 k voxels; docs/memory.md#incomplete-cholesky).
+const double kIncompleteCholeskyBytesPerVoxel = 570;
+
+double incompleteCholeskyBytes(std::size_t n) { return kIncompleteCholeskyBytesPerVoxel * double(n); }
+
 }  // namespace gpisvdb

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "gpisvdb/core/errors.h"
 #include "surface_poly_data.h"
@@ -38,12 +39,69 @@ SurfaceMesh isoSurface(const openvdb::FloatGrid& grid, double level) {
     openvdb::tools::volumeToMesh(grid, points, tris, quads, level, 0.0);
     SurfaceMesh m;
     m.vertices = std::move(points);
+    m.triangles.reserve(tris.size() + 2 * quads.size());  // at once: growth by doubling would hold up to 3× at its peak
     for (const auto& t : tris) m.triangles.push_back({int(t[0]), int(t[1]), int(t[2])});
     for (const auto& q : quads) {
         m.triangles.push_back({int(q[0]), int(q[1]), int(q[2])});
         m.triangles.push_back({int(q[0]), int(q[2]), int(q[3])});
     }
     return m;
+}
+
+std::vector<std::pair<std::string, double>> meanSurfaceBytes(const openvdb::FloatGrid& mean, double iso, int components,
+                                                             bool polyData, double* vertexCount) {
+    // === The crossing edges (one quad each) and the leaves that hold them, with the internal nodes above those
+    //     leaves: the mesher's own trees (intersection, sign flags, point indices) allocate each such node
+    using Tree = openvdb::FloatTree;
+    using Lower = Tree::RootNodeType::ChildNodeType::ChildNodeType;  // 16³ children, 128 voxels wide
+    using Upper = Tree::RootNodeType::ChildNodeType;                 // 32³ children, 4096 voxels wide
+    double quads = 0, leaves = 0;
+    std::set<openvdb::Coord> lowers, uppers;
+    auto acc = mean.getConstAccessor();
+    for (auto leaf = mean.tree().cbeginLeaf(); leaf; ++leaf) {
+        bool crossed = false;
+        for (auto v = leaf->cbeginValueOn(); v; ++v) {
+            const bool inside = *v > iso;
+            for (int axis = 0; axis < 3; ++axis) {
+                openvdb::Coord n = v.getCoord();
+                n[axis] += 1;
+                float g = 0;
+                if (acc.probeValue(n, g) && (g > iso) != inside) quads += 1, crossed = true;
+            }
+        }
+        if (!crossed) continue;
+        leaves += 1;
+        lowers.insert(leaf->origin() & ~int(Lower::DIM - 1));
+        uppers.insert(leaf->origin() & ~int(Upper::DIM - 1));
+    }
+    const double vertices = quads;  // a closed quad mesh has as many vertices as faces (Euler: V − E + F = 2, E = 2F)
+    if (vertexCount) *vertexCount = vertices;
+    using Int16Leaf = Tree::ValueConverter<openvdb::Int16>::Type::LeafNodeType;
+    using IndexLeaf = Tree::ValueConverter<openvdb::Index32>::Type::LeafNodeType;
+    using BoolLeaf = openvdb::BoolTree::LeafNodeType;
+    // Internal nodes hold a pointer or a value per child whatever the value type: in each tree they cost what the
+    // float tree's do
+    const double nodes = double(lowers.size()) * double(sizeof(Lower)) + double(uppers.size()) * double(sizeof(Upper));
+    // Extraction: u − γ on the mean's topology, then inside volumeToMesh its intersection (bool), sign (int16) and
+    // point-index (uint32) trees, the first freed before its point list (Vec3s) and quad pools (Vec4I and a flag
+    // byte per quad) are made; or, at the end of isoSurface, the points and quads it returned beside our triangles
+    // (two 3 × int32 per quad).
+    const double levelSet = double(mean.tree().memUsage());
+    // (a leaf's values are a separate block of SIZE values beside the node, a bool leaf's a bit mask within it)
+    const double signAndIndex = 2 * nodes + leaves * double(sizeof(Int16Leaf) + Int16Leaf::SIZE * sizeof(openvdb::Int16) +
+                                                            sizeof(IndexLeaf) + IndexLeaf::SIZE * sizeof(openvdb::Index32));
+    const double inMesher = signAndIndex + std::max(nodes + leaves * double(sizeof(BoolLeaf)), 12.0 * vertices + 17.0 * quads);
+    const double returned = 12.0 * vertices + 16.0 * quads + 24.0 * quads;
+    const double extraction = levelSet + std::max(inMesher, returned);
+    // The finished mesh: vertices (Vec3s), triangles, the sampled arrays (float) and VTK's copy of them all (float
+    // points, 64-bit offsets and connectivity: 32 B per triangle, float arrays)
+    const double mesh = 12.0 * vertices + 24.0 * quads, arrays = 4.0 * components * vertices;
+    const double vtk = polyData ? 12.0 * vertices + 64.0 * quads + arrays : 0.0;
+    if (extraction >= mesh + arrays + vtk)
+        return {{"level_set", levelSet}, {inMesher > returned ? "mesher_trees_and_pools" : "mesher_output", extraction - levelSet}};
+    std::vector<std::pair<std::string, double>> parts = {{"mesh", mesh}, {"sampled_arrays", arrays}};
+    if (polyData) parts.emplace_back("vtk_poly_data", vtk);
+    return parts;
 }
 
 double surfaceArea(const SurfaceMesh& mesh) {
@@ -78,10 +136,12 @@ void sampleAtVertices(SurfaceMesh& mesh, const openvdb::GridBase& grid) {
     int comps = 0;
     if (const auto* f = dynamic_cast<const openvdb::FloatGrid*>(&grid)) {
         openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> s(*f);
+        values.reserve(mesh.vertices.size());  // exactly: what meanSurfaceBytes counts, not up to twice that
         for (const auto& p : mesh.vertices) values.push_back(s.wsSample(openvdb::Vec3d(p)));
         comps = 1;
     } else if (const auto* v = dynamic_cast<const openvdb::Vec3SGrid*>(&grid)) {
         openvdb::tools::GridSampler<openvdb::Vec3SGrid, openvdb::tools::BoxSampler> s(*v);
+        values.reserve(3 * mesh.vertices.size());
         for (const auto& p : mesh.vertices) {
             const openvdb::Vec3s x = s.wsSample(openvdb::Vec3d(p));
             values.insert(values.end(), {x[0], x[1], x[2]});

@@ -1,10 +1,12 @@
 #include "gpisvdb/tasks/matern.h"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "gpisvdb/core/errors.h"
 
@@ -75,7 +77,27 @@ void evaluate(const Eigen::MatrixXd& U, const Posterior& post, double priorMean,
                       });
 }
 
+/// The k × k weight-space solve: forced, or every noise > 0 and more points than eigenpairs.
+bool usesWeightSpace(const PointData& data, Eigen::Index k, const RegressionOptions& options) {
+    bool allNoisy = true;
+    for (double s : data.noise) allNoisy = allNoisy && s > 0;
+    return options.weightSpace || (allNoisy && Eigen::Index(data.value.size()) > k);
+}
+
 }  // namespace
+
+std::vector<std::pair<std::string, double>> regressionBytes(std::size_t voxels, const PointData& data, int k,
+                                                            const RegressionOptions& options) {
+    const double n = double(voxels), m = double(data.value.size()), K = double(k), d = sizeof(double);
+    const double features = d * m * K;
+    const double solve = usesWeightSpace(data, k, options) ? d * (m * K + 5 * K * K) : d * (2 * m * K + 2 * m * m + 3 * K * K);
+    const double threads = double(tbb::this_task_arena::max_concurrency());
+    // Per thread: a block of U P (rows × k) and Eigen's packed copy of those rows of U for the product
+    const double block = d * double(std::min<Eigen::Index>(kRowBlock, Eigen::Index(voxels))) * K;
+    const double evaluation = d * K * K + 24.0 * n + threads * 2 * block;
+    if (solve > evaluation) return {{"features", features}, {"posterior_solve", solve}};
+    return {{"features", features}, {"posterior_on_band", evaluation}};
+}
 
 double defaultKappa(double area) { return 0.1 * std::sqrt(area); }
 
@@ -164,7 +186,7 @@ RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const 
     const Eigen::VectorXd r = y.array() - result.priorMean;
     const bool allNoisy = (noise.array() > 0).all();
     if (options.weightSpace && !allNoisy) throw ParameterError("the weight-space solve needs a noise > 0 at every data point");
-    result.weightSpace = options.weightSpace || (allNoisy && Eigen::Index(m) > eigen.values.size());
+    result.weightSpace = usesWeightSpace(data, eigen.values.size(), options);
     if (!result.weightSpace && m > kMaxExactPoints)
         throw ParameterError(std::to_string(m) + " data points without noise are too many for the exact m × m solve (at most " +
                              std::to_string(kMaxExactPoints) + "): give every point a noise > 0");

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numeric>
 
 #include "gpisvdb/core/errors.h"
@@ -14,17 +15,28 @@ namespace gpisvdb {
 
 namespace {
 constexpr int kLeafSize = 8;
+
+/// A node of the k-d tree.
+struct TreeNode {
+    Vec3d lo, hi;         // box of the node's points
+    Vec3d centre;         // weighted centroid c
+    double radius = 0;    // max ‖x_j − c‖
+    double weight = 0;    // Σ μ h³
+    int begin = 0, end = 0;
+    int left = -1, right = -1;
+};
+
+/// Nodes of the tree over n points, split at the middle until a node holds at most kLeafSize. A level's sizes
+/// differ by at most one, so memoising them takes O(log n) calls.
+double treeNodes(std::size_t n, std::map<std::size_t, double>& memo) {
+    if (n <= std::size_t(kLeafSize)) return 1;
+    if (const auto it = memo.find(n); it != memo.end()) return it->second;
+    return memo[n] = 1 + treeNodes(n / 2, memo) + treeNodes(n - n / 2, memo);
 }
+}  // namespace
 
 struct SmoothedDistance::Impl {
-    struct Node {
-        Vec3d lo, hi;         // box of the node's points
-        Vec3d centre;         // weighted centroid c
-        double radius = 0;    // max ‖x_j − c‖
-        double weight = 0;    // Σ μ h³
-        int begin = 0, end = 0;
-        int left = -1, right = -1;
-    };
+    using Node = TreeNode;
     double alpha = 0;
     double totalWeight = 0;
     std::vector<Vec3d> point;    // voxel centres, tree order
@@ -52,17 +64,19 @@ struct SmoothedDistance::Impl {
         int axis = 0;
         (n.hi - n.lo).maxCoeff(&axis);
         const int mid = (begin + end) / 2;
-        std::vector<int> order(std::size_t(end - begin));
-        std::iota(order.begin(), order.end(), begin);
-        std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return point[std::size_t(a)][axis] < point[std::size_t(b)][axis]; });
-        std::vector<Vec3d> p(order.size());
-        std::vector<double> w(order.size());
-        for (std::size_t k = 0; k < order.size(); ++k) {
-            p[k] = point[std::size_t(order[k])];
-            w[k] = weight[std::size_t(order[k])];
+        {  // freed before the children are built: otherwise every level's copies (36 B per point) stay alive
+            std::vector<int> order(std::size_t(end - begin));
+            std::iota(order.begin(), order.end(), begin);
+            std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return point[std::size_t(a)][axis] < point[std::size_t(b)][axis]; });
+            std::vector<Vec3d> p(order.size());
+            std::vector<double> w(order.size());
+            for (std::size_t k = 0; k < order.size(); ++k) {
+                p[k] = point[std::size_t(order[k])];
+                w[k] = weight[std::size_t(order[k])];
+            }
+            std::copy(p.begin(), p.end(), point.begin() + begin);
+            std::copy(w.begin(), w.end(), weight.begin() + begin);
         }
-        std::copy(p.begin(), p.end(), point.begin() + begin);
-        std::copy(w.begin(), w.end(), weight.begin() + begin);
         const int left = build(begin, mid);
         const int right = build(mid, end);
         nodes[std::size_t(id)].left = left;
@@ -112,6 +126,8 @@ SmoothedDistance::SmoothedDistance(const Band& band, double alpha) : impl_(std::
         impl_->weight[i] = double(band.mu[i]) * h3;
         impl_->totalWeight += impl_->weight[i];
     }
+    std::map<std::size_t, double> memo;
+    impl_->nodes.reserve(std::size_t(treeNodes(band.size(), memo)));  // exactly: no growth by doubling
     impl_->build(0, int(band.size()));
 }
 
@@ -186,10 +202,7 @@ double SmoothedDistance::at(const Vec3d& x, double tolerance, std::size_t* terms
     return dStar - std::log(s) / alpha;
 }
 
-SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDistanceOptions& o, const Progress& progress) {
-    if (band.size() == 0) throw Error("smoothed distance: the band is empty");
-    const SmoothedDistance field(band, o.alpha);
-
+DistanceGridShape smoothedDistanceGridShape(const Band& band, const SmoothedDistanceOptions& o) {
     // === The grid: the band's box plus padding, voxel size H
     const openvdb::CoordBBox box = band.bbox();
     const Vec3d lo = band.voxelSize * Vec3d(box.min().x(), box.min().y(), box.min().z());
@@ -202,13 +215,55 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
     const double H = o.gridVoxelSize > 0 ? o.gridVoxelSize : (side + 2 * pad) / 128.0;
     if (!(H > 0) || !std::isfinite(H))
         throw ParameterError("the grid voxel size H (SmoothedDistanceOptions::gridVoxelSize) must be finite and > 0", {"SmoothedDistanceOptions::gridVoxelSize"});
-    Eigen::Vector3d first, last;
+    DistanceGridShape shape;
+    Eigen::Vector3d last;
     for (int c = 0; c < 3; ++c) {
-        first[c] = std::floor((lo[c] - pad) / H);
+        shape.first[c] = std::floor((lo[c] - pad) / H);
         last[c] = std::ceil((hi[c] + pad) / H);
     }
-    const Vec3d count = last - first + Vec3d::Ones();
-    const double points = count.prod();
+    shape.count = last - shape.first + Vec3d::Ones();
+    shape.voxelSize = H;
+    shape.points = shape.count.prod();
+    return shape;
+}
+
+std::vector<std::pair<std::string, double>> smoothedDistanceBytes(const Band& band, const SmoothedDistanceOptions& o, bool levelCopy) {
+    const DistanceGridShape shape = smoothedDistanceGridShape(band, o);
+    const double n = double(band.size());
+    std::map<std::size_t, double> memo;
+    // The tree: each voxel's centre (Vec3d) and weight (double), its nodes (reserved exactly); while it is built, the
+    // top level's sort order (int), centres and weights copied in that order (36 B per voxel)
+    const double tree = 32.0 * n + treeNodes(band.size(), memo) * double(sizeof(TreeNode));
+    const double build = 36.0 * n;
+    // The dense grid: its leaves (8³ floats) and the internal nodes above them (16³ and 32³ children), along each
+    // axis those the points [first, first + count) touch
+    const auto spanned = [&](double width) {
+        double nodes = 1;
+        for (int c = 0; c < 3; ++c)
+            nodes *= std::floor((shape.first[c] + shape.count[c] - 1) / width) - std::floor(shape.first[c] / width) + 1;
+        return nodes;
+    };
+    using Tree = openvdb::FloatTree;
+    using Leaf = Tree::LeafNodeType;
+    using Lower = Tree::RootNodeType::ChildNodeType::ChildNodeType;
+    using Upper = Tree::RootNodeType::ChildNodeType;
+    const double leafBytes = double(sizeof(Leaf) + Leaf::SIZE * sizeof(float));  // the node and its block of values
+    const double grid = spanned(Leaf::DIM) * leafBytes + spanned(Lower::DIM) * double(sizeof(Lower)) +
+                        spanned(Upper::DIM) * double(sizeof(Upper));
+    const double values = 4.0 * shape.points;  // float per point while they are computed
+    // The larger of: the tree's build; the evaluation (the tree, the values, the grid they are copied into); the
+    // command's level set (a copy of the grid beside it)
+    const double evaluation = tree + values + grid;
+    if (levelCopy && 2 * grid > std::max(evaluation, tree + build)) return {{"grid", grid}, {"level_set_copy", grid}};
+    if (tree + build > evaluation) return {{"kd_tree", tree}, {"kd_tree_build", build}};
+    return {{"kd_tree", tree}, {"values", values}, {"grid", grid}};
+}
+
+SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDistanceOptions& o, const Progress& progress) {
+    if (band.size() == 0) throw Error("smoothed distance: the band is empty");
+    const DistanceGridShape shape = smoothedDistanceGridShape(band, o);
+    const Vec3d first = shape.first, count = shape.count;
+    const double H = shape.voxelSize, points = shape.points;
     const double cap = o.maxPoints ? double(o.maxPoints) : 2147483648.0;
     if (!(points <= cap) || (count.array() > 2e9).any())
         throw MemoryLimitError("the distance grid would hold " + numberText(points) + " points at grid voxel size H = " + numberText(H) +
@@ -217,6 +272,8 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
                              {"SmoothedDistanceOptions::gridVoxelSize"});
     const double tol = o.tolerance > 0 ? o.tolerance : 1e-2 * H;
     if (!std::isfinite(tol)) throw ParameterError("the distance tolerance (SmoothedDistanceOptions::tolerance) must be finite and > 0", {"SmoothedDistanceOptions::tolerance"});
+
+    const SmoothedDistance field(band, o.alpha);  // after the checks: a refused grid builds no tree
 
     // === Evaluate, in slabs of z so that progress and Ctrl-C stay on the calling thread
     const int nx = int(count[0]), ny = int(count[1]), nz = int(count[2]);

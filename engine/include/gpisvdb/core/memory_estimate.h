@@ -70,4 +70,13 @@ double multigridBytes(std::size_t n);
 /// The multigrid's peak per unknown (above), measured.
 extern const double kMultigridBytesPerVoxel;
 
+/// Peak bytes the incomplete Cholesky preconditioner (solve/pcg.h) adds for n unknowns of the band Laplacian while
+/// it is set up and kept: the assembled L (float CSR), Eigen's column-major copy, its permuted lower triangle,
+/// AMD ordering and column lists, and the factor; measured per voxel on bunny bands
+/// (kIncompleteCholeskyBytesPerVoxel, docs/memory.md#incomplete-cholesky).
+double incompleteCholeskyBytes(std::size_t n);
+
+/// The incomplete Cholesky's peak per unknown (above), measured.
+extern const double kIncompleteCholeskyBytesPerVoxel;
+
 }  // namespace gpisvdb

@@ -3,6 +3,7 @@
 #include <array>
 #include <openvdb/openvdb.h>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace gpisvdb {
@@ -23,6 +24,16 @@ SurfaceMesh meanSurface(const openvdb::FloatGrid& mean, double iso);
 /// Iso-surface {f = level} of a grid whose active voxels cover the region of interest (a dense field such as the
 /// smoothed distance), by OpenVDB's volumeToMesh. Vertices in world units.
 SurfaceMesh isoSurface(const openvdb::FloatGrid& grid, double level);
+
+/// What meanSurface(mean, iso) and the mesh it returns allocate at their peak, bytes by part, counted before any of
+/// it is allocated (docs/memory.md#mesh). The mesh's size comes from the crossing edges of the band (pairs of active
+/// neighbours on either side of u): volumeToMesh makes one quad per crossing edge and, on a closed quad mesh, about
+/// as many vertices as quads. The peak is the larger of the extraction's (u − γ over the mean's tree, the mesher's
+/// sign and index leaves, its quad pools and point list, the points and quads it returns) and the finished mesh's
+/// (vertices, triangles, `components` floats per vertex sampled on it, and with `polyData` VTK's copy for a .vtp
+/// file or a render). `vertices`, when given, receives the mesh's vertex count so estimated.
+std::vector<std::pair<std::string, double>> meanSurfaceBytes(const openvdb::FloatGrid& mean, double iso, int components,
+                                                             bool polyData, double* vertices = nullptr);
 
 /// Σ of the triangles' areas, world units².
 double surfaceArea(const SurfaceMesh& mesh);

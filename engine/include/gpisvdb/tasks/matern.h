@@ -8,6 +8,8 @@
 // ∫ k(x, x) dμ / A = a. d is the dimension of the surface the kernel lives on (2), as in Borovitskiy et al.
 // Because T vanishes across the surface and μ weighs L², the u_i — and so the prior variance k(x, x) — are
 // larger where μ is small: where the shape itself is uncertain.
+#include <string>
+#include <utility>
 #include <vector>
 #include <Eigen/Core>
 
@@ -55,6 +57,15 @@ struct RegressionResult {
     double amplitude = 0, kappa = 0;  ///< the a and κ used
     bool weightSpace = false;      ///< which exact solve ran: k × k weight space, or m × m function space
 };
+
+/// What gpRegression allocates at its peak beside the eigenpairs, for a band of `voxels`, `data` and `k` eigenpairs,
+/// bytes by part (docs/memory.md#regression): the features Φ (m × k double), then the larger of the posterior's
+/// solve (function space: ΦW and V, m × k, K and its Cholesky factor, m × m, and P with two k × k temporaries;
+/// weight space: B, k × m, A and its factor and P with three k × k temporaries) and its evaluation over the band
+/// (mean and variance in double while computed and in float as returned, 24 B per voxel; P; in each thread a block
+/// of U P, kRowBlock × k, and Eigen's packed copy of those rows of U).
+std::vector<std::pair<std::string, double>> regressionBytes(std::size_t voxels, const PointData& data, int k,
+                                                            const RegressionOptions& options = {});
 
 /// The GP posterior with the Matérn kernel of `eigen` given `data`: constant prior mean (the data mean), noise
 /// variances from data.noise (0: exact data, interpolated). Function space (m × m Cholesky) when some noise is

@@ -15,6 +15,8 @@
 // when ε = (1 − q) / (2 − q), q = e^{−α · tolerance}. Far from the band whole subtrees collapse into one term.
 #include <cstddef>
 #include <memory>
+#include <string>
+#include <utility>
 #include <openvdb/openvdb.h>
 #include <vector>
 
@@ -63,6 +65,23 @@ struct SmoothedDistanceResult {
     std::size_t points = 0;
     double meanTerms = 0;          ///< summed terms per point (N for brute force)
 };
+
+/// The grid smoothedDistanceGrid makes for a band and options: grid point k sits at H·(first + k) (world units).
+struct DistanceGridShape {
+    Vec3d first = Vec3d::Zero();  ///< the first point's index along each axis, units of H
+    Vec3d count = Vec3d::Zero();  ///< points along each axis
+    double voxelSize = 0;         ///< H as used, world units
+    double points = 0;            ///< the product of count
+};
+/// Throws ParameterError on a non-finite padding or a grid voxel size that is not finite and > 0.
+DistanceGridShape smoothedDistanceGridShape(const Band& band, const SmoothedDistanceOptions& options);
+
+/// What smoothedDistanceGrid(band, options) allocates at its peak, bytes by part, counted before it allocates
+/// (docs/memory.md#distance): the larger of the k-d tree's build (the tree, 32 B per voxel and its nodes, with the
+/// top level's sorted copies, 36 B per voxel) and the evaluation (the tree, a float per grid point, the dense
+/// OpenVDB grid's leaves and internal nodes); with `levelCopy`, also the command's copy of the grid beside it.
+std::vector<std::pair<std::string, double>> smoothedDistanceBytes(const Band& band, const SmoothedDistanceOptions& options,
+                                                                  bool levelCopy);
 
 /// d_α on a grid covering the band's box plus padding; grid point k sits at H·k (world units). Parallel over
 /// points; the result does not depend on the thread count.
