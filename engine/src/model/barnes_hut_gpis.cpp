@@ -21,12 +21,23 @@ BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOp
     samples_ = samples;
     addNode(0, std::uint32_t(samples_.size()));
     split(0, 0);
+    const double s2 = s * s, s4 = s2 * s2;
+    // Two records past the end: the packets load 16 floats from each record (barnes_hut_packet.cpp).
+    nearSamples_.assign(samples_.size() + 2, NearSample{});
+    for (std::size_t i = 0; i < samples_.size(); ++i) {
+        NearSample& n = nearSamples_[i];
+        for (int d = 0; d < 3; ++d) n.w[d] = float(samples_.normal[i][d] / s2);
+        n.var = float(samples_.positionVariance[i] / s2);
+        const Sym3& N = samples_.normalCovariance[i];
+        const double entries[6] = {N.xx, N.xy, N.xz, N.yy, N.yz, N.zz};
+        for (int k = 0; k < 6; ++k) n.N[k] = float(entries[k] / s4);
+    }
 }
 
 std::size_t BarnesHutGpis::memoryBytes() const {
     return nodes_.capacity() * sizeof(Node) + meanMoments_.capacity() * sizeof(MeanMoments) +
            covMoments_.capacity() * sizeof(CovarianceMoments) +
-           samples_.size() * (2 * sizeof(Vec3d) + sizeof(double) + sizeof(Sym3));
+           samples_.size() * (2 * sizeof(Vec3d) + sizeof(double) + sizeof(Sym3) + sizeof(NearSample));
 }
 
 // === Tree: split the samples' bounding box at its centre into octants, children contiguous in nodes_.

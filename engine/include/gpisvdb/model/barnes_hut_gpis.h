@@ -22,6 +22,8 @@ struct BarnesHutOptions {
                                     ///< relaxes like √(L/d), down to 2
     int leafSize = 32;     ///< most samples in a leaf (≥ 1); 32 is both faster and more accurate than 16 in packets
                            ///< (docs/model.md#packets)
+    bool floatNearField = true;  ///< packets sum a leaf's samples in float lanes, in units of s (≈ 1e-6 relative,
+                                 ///< docs/model.md#packets); false: in double, to rounding of evaluate(x)
 };
 
 class BarnesHutGpis final : public GpisModel {
@@ -69,6 +71,15 @@ public:
         Mat3d nrmC[3];                ///< nrmC[l] = Σ δ_l Σ'
     };
 
+    /// A sample in units of the smoothing s, in float, for the packets' near field (docs/model.md#packets): w/s²,
+    /// σ²/s² and Σ'/s⁴ (xx, xy, xz, yy, yz, zz). In units of s the kernel's values stay within float's range at any
+    /// scale of the input.
+    struct NearSample {
+        float w[3];
+        float var;
+        float N[6];
+    };
+
 private:
     friend struct PacketTraversal;  // barnes_hut_packet.cpp
     static constexpr int kMaxDepth = 48;  // coincident samples stop splitting here
@@ -90,6 +101,7 @@ private:
     }
 
     Samples samples_;  // reordered so that every node's samples are contiguous
+    std::vector<NearSample> nearSamples_;  // samples_ in units of s, in float, in the same order
     std::vector<Node> nodes_;
     std::vector<MeanMoments> meanMoments_;       // per node
     std::vector<CovarianceMoments> covMoments_;  // per node
