@@ -218,12 +218,20 @@ nlohmann::json childStage(const std::string& args, const std::string& stage) {
     return nlohmann::json::parse(std::ifstream(json))["memory"]["stages"][stage];
 }
 
-/// The stage's estimate within 15 % of the peak measured over it, the peak the stage's own (not the run's).
+/// The stage's estimate within 15 % of the peak measured over it, the peak the stage's own (not the run's); and,
+/// since on these small inputs the baseline alone comes within 15 % of the peak, the stage's own bytes within a
+/// factor of 2 of what it added (where it added 2 MB or more: below, the 1–3 MB of thread and allocator start-up
+/// no estimate counts dominate, docs/memory.md).
 void checkStage(const nlohmann::json& stage) {
-    const double estimate = stage["estimate_bytes"], measured = stage["measured_peak_bytes"];
+    const double estimate = stage["estimate_bytes"], measured = stage["measured_peak_bytes"], baseline = stage["baseline_bytes"];
     INFO("estimate " << estimate << ", measured " << measured << ": " << stage.dump());
-    CHECK(stage["stage_only"] == true);
     checkWithin15Percent(estimate, measured);
+    if (!test::kMemoryChecked) return;
+    CHECK(stage["stage_only"] == true);
+    if (measured - baseline >= 2e6) {
+        CHECK(estimate - baseline >= 0.5 * (measured - baseline));
+        CHECK(estimate - baseline <= 2.0 * (measured - baseline));
+    }
 }
 
 /// Bunny bands (σ_rel 2) at two voxel sizes, as .vdb files (mean, mu, …) for the mesh and render commands.
@@ -290,20 +298,22 @@ TEST_CASE("memory: mesh, render, evaluate, distance and green with the incomplet
     const std::string icArgs = "green " + bunny + " --source 0.5,6,1 --preconditioner ic --sigma 2 --voxel-size 0.25";
     struct Case {
         std::string args, output, expect;
+        bool fixedLimit = false;  ///< a limit set for this build's baseline (≈ 70 MB), not derived from a run
     };
     const Case cases[] = {
-        // 300 000 points need ≈ 53 MB beside the ≈ 70 MB the process holds
+        // 300 000 points need ≈ 53 MB beside the ≈ 70 MB the process holds (a sanitizer's process holds more: there
+        // the advice may be "raise it", below)
         {"evaluate " + bunny + " --sigma 2 --at " + at + " -o " + out + " --max-memory 100M", out,
-         "split the query points (--at) into files of at most"},
+         "split the query points (--at) into files of at most", true},
         // 8192² pixels need ≈ 5.4 GB
-        {"render " + vdb + " --grid mu --size 8192,8192 -o " + png + " --max-memory 1G", png, "use --size"},
+        {"render " + vdb + " --grid mu --size 8192,8192 -o " + png + " --max-memory 1G", png, "use --size", true},
         // 10 M grid points need ≈ 80 MB (values and grid) beside the ≈ 70 MB the process holds
         {"distance " + bunny + " --alpha 20 --sigma 2 --voxel-size 0.4 --grid-voxel-size 0.05 -o " + dist + " --max-memory 100M", dist,
-         "use a grid voxel size (--grid-voxel-size) of"},
+         "use a grid voxel size (--grid-voxel-size) of", true},
         // The surface's ≈ 7 MB: a limit half-way through them, from a run that fits
         {meshArgs + " -o " + mesh + halfWay(meshArgs, "mesh", mesh), mesh, "rebuild the band with a voxel size (--voxel-size) of"},
         // The incomplete Cholesky's factor: ≈ 12 MB at this size
-        {icArgs + " -o " + dist + halfWay(icArgs, "green", dist), dist, "the Green's function solve needs about"},
+        {icArgs + " -o " + dist + halfWay(icArgs, "green", dist), dist, "use a voxel size (--voxel-size) of"},
         {"mesh " + vdb + " --grid mu -o " + mesh + " --max-memory 20M", mesh, "raise it"},
     };
     for (const Case& c : cases) {
@@ -312,7 +322,8 @@ TEST_CASE("memory: mesh, render, evaluate, distance and green with the incomplet
         CHECK(r.code == 1);
         CHECK(lines(r.err) == 1);
         CHECK_THAT(r.err, Catch::Contains("more than the memory limit (--max-memory) allows"));
-        CHECK_THAT(r.err, Catch::Contains(c.expect));
+        // The fixed limits assume this build's baseline (≈ 70 MB); a sanitizer's is larger, and its advice "raise it"
+        if (test::kMemoryChecked || !c.fixedLimit) CHECK_THAT(r.err, Catch::Contains(c.expect));
         CHECK_FALSE(leftovers(c.output));
     }
 }

@@ -75,8 +75,21 @@ void addRegress(CLI::App& app, Action& action) {
             const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
             // The regression's own vectors beside the eigenpairs: estimated and refused before they allocate,
             // measured over them (docs/memory.md#regression)
-            const MemoryEstimate regressionMemory =
-                estimateStage(job, "regression", regressionBytes(band.size(), points, int(e.values.size()), ro));
+            std::vector<std::pair<std::string, double>> regressionParts =
+                regressionBytes(band.size(), points, int(e.values.size()), ro);
+            double dataBytes = 0;  // the features and the solve go with the data points and k, not the band
+            for (const auto& p : regressionParts)
+                if (p.first != "posterior_on_band") dataBytes += p.second;
+            const double h = job.options.voxelSize;
+            const MemoryEstimate regressionMemory = estimateStageWithin(
+                job.maxMemory, "regression", "libraries, input, band, eigenpairs", std::move(regressionParts),
+                [&](double need, double available) {
+                    if (dataBytes >= 0.9 * available)
+                        return "use fewer data points (--data holds " + std::to_string(points.value.size()) +
+                               ") or fewer eigenpairs (-k " + std::to_string(e.values.size()) + ")";
+                    return "use a voxel size (--voxel-size) of " + numberText(h * std::cbrt(need / available) * 1.1) +
+                           " or larger";
+                });
             const bool regressionOnly = resetPeakResident();
             const auto tRegress = Clock::now();
             run.progress.update("regression", 0);

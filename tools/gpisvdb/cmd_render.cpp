@@ -115,8 +115,9 @@ void addRender(CLI::App& app, Action& action) {
             const MemoryEstimate memory = estimateStageWithin(
                 limit, "render", "libraries, the .vdb file", std::move(parts), [&](double, double available) {
                     const double window = pixels * kRenderBytesPerPixel, surface = fixedBytes - kRenderContextBytes;
-                    if (available > fixedBytes) {  // the window's bytes go as the pixels
-                        const double scale = std::sqrt((available - fixedBytes) / window) * 0.95;
+                    const double scale = available > fixedBytes ? std::sqrt((available - fixedBytes) / window) * 0.95 : 0;
+                    if (std::floor(a->size[0] * scale) >= 64 && std::floor(a->size[1] * scale) >= 64) {
+                        // the window's bytes go as the pixels; --size takes 64 pixels at least
                         return "use --size " + numberText(std::floor(a->size[0] * scale)) + "," +
                                numberText(std::floor(a->size[1] * scale)) + " or smaller";
                     }

@@ -418,8 +418,12 @@ void erfExpFloat(const float* x, const float* y, float* ex, float* ey) {
 
 /// The kernel in units of s (a = 1/√2) for float lanes. The series stops at a·r = 1.6, not 2 as in double: in float
 /// its cancellation costs more there than the closed forms' (both ≤ 2e-6 relative at the switch, measured against
-/// 40-digit values; ≤ 1.5e-5 for F4 at a·r = 2), and 16 terms reach float's rounding (2.56^16/16! < 1e-7).
+/// 40-digit values; ≤ 1.5e-5 for F4 at a·r = 2), and 16 terms reach float's rounding (the first one left out is at
+/// most 2.56^16/(16!·35) ≈ 5e-9).
 constexpr float kPairSwitchAR = 1.6f;
+/// |ŷ| beyond which a lane is clamped: t̂ = 3e18 and every F̂_k and term stay finite in float (an exact leaf is
+/// within a few dozen s of the lanes that want it).
+constexpr double kFloatReach = 1e9;
 constexpr int kPairSeriesTerms = 16;
 struct PairSeries {
     float inverse[kPairSeriesTerms][4];  ///< 1/(2m + 2k + 3), for F_{k+1}
@@ -456,7 +460,7 @@ NearKernel nearKernel(const RegularizedKernel& kernel) {
 /// F̂_1…F̂_4 per float lane (F_k = s^−(2k+1) F̂_k): kernelAt's structure, the same rule per lane (a lane's value never
 /// depends on the others').
 GPISVDB_LANES_INLINE PairKernel kernelAtPair(const NearKernel& kernel, const PairLanes& t) {
-    PairKernel F;
+    PairKernel F{};
     float tMin, tMax;  // t is never NaN: a sum of squares of finite differences
     range(t, tMin, tMax);
     const bool newton = tMin > kernel.newton2, series = tMin < kernel.series2, closed = !(tMax < kernel.series2);
@@ -577,7 +581,11 @@ GPISVDB_LANES_INLINE void nearField(const NearKernel& kernel, const std::vector<
         const std::uint32_t j = two ? i + 1 : i;
         PairVec3 y;
         for (int d = 0; d < 3; ++d) {
-            const Lanes yi = (x[d] - position[i][d]) * kernel.inverseS, yj = (x[d] - position[j][d]) * kernel.inverseS;
+            // Clamped where float would overflow: only a lane this leaf is far from gets there (masked off), and its
+            // terms must stay finite so that 0 × term is 0, not NaN in a packet-mate's sum
+            Lanes yi = (x[d] - position[i][d]) * kernel.inverseS, yj = (x[d] - position[j][d]) * kernel.inverseS;
+            yi = yi > kFloatReach ? kFloatReach : yi < -kFloatReach ? -kFloatReach : yi;
+            yj = yj > kFloatReach ? kFloatReach : yj < -kFloatReach ? -kFloatReach : yj;
             y[d] = __builtin_shufflevector(__builtin_convertvector(yi, HalfLanes), __builtin_convertvector(yj, HalfLanes), 0, 1,
                                            2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
         }

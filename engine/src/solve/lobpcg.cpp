@@ -70,11 +70,14 @@ MatrixXd sumOverChunks(const Chunks& chunks, Index rows, Index cols, const F& pe
 /// A thread's work space for a chunk's products, reused from chunk to chunk: a fresh temporary per chunk would be
 /// mapped and unmapped by malloc each time (it is above glibc's mmap threshold), a page fault per page (12 % of the
 /// time, measured).
+/// Aligned as Eigen aligns its own storage: a reduction over a view starts its vector loop at the data's alignment,
+/// which must not depend on the thread that ran the chunk.
+using ScratchVector = std::vector<double, Eigen::aligned_allocator<double>>;
 struct Scratch {
-    std::vector<double> a, b;
+    ScratchVector a, b;
 };
 
-Eigen::Map<MatrixXd> view(std::vector<double>& storage, Index rows, Index cols) {
+Eigen::Map<MatrixXd, Eigen::Aligned16> view(ScratchVector& storage, Index rows, Index cols) {
     if (storage.size() < std::size_t(rows * cols)) storage.resize(std::size_t(rows * cols));
     return {storage.data(), rows, cols};
 }
@@ -96,8 +99,9 @@ int lobpcgBlockSize(int count, const LobpcgOptions& options, double n) {
 
 double lobpcgBytes(double n, int count, const LobpcgOptions& options) {
     const double m = lobpcgBlockSize(count, options, n);
-    // Per thread, a chunk's products: [X W P] and [L B, M B] for B = [W P] (3m + 4m columns) at most.
-    const double chunkBytes = 8.0 * double(kChunkRows) * 7.0 * m;
+    // Per thread, a chunk's products (at most [L B, M B] for B = [W P], 4m columns, beside an m-column one) and two
+    // partial sums in flight (Sᵀ [L B, M B]: 3m × 4m)
+    const double chunkBytes = 8.0 * double(kChunkRows) * 5.0 * m + 2.0 * 8.0 * 12.0 * m * m;
     const double threads = double(tbb::this_task_arena::max_concurrency());
     return 3.0 * 8.0 * n * m + 8.0 * n + threads * chunkBytes + kMultigridBytesPerVoxel * n;
 }
