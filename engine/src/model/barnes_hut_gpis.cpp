@@ -22,7 +22,7 @@ BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOp
     addNode(0, std::uint32_t(samples_.size()));
     split(0, 0);
     const double s2 = s * s, s4 = s2 * s2;
-    // Two records past the end: the packets load 16 floats from each record (barnes_hut_packet.cpp).
+    // Two records past the end: the packets load 16 floats from each record (packet_near_field.h).
     nearSamples_.assign(samples_.size() + 2, NearSample{});
     for (std::size_t i = 0; i < samples_.size(); ++i) {
         NearSample& n = nearSamples_[i];

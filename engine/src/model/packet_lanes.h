@@ -1,0 +1,107 @@
+#pragma once
+// The SIMD lanes of the Barnes–Hut packets (docs/model.md#packets): one double per point of a packet, GCC vector
+// extensions, and erf and exp in lanes from glibc's libmvec. An implementation header of barnes_hut_packet.cpp, its
+// only includer: its helpers are inlined into each instruction-set clone of the traversal there.
+#include <cmath>
+#include <cstdint>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
+#include "gpisvdb/model/barnes_hut_gpis.h"
+
+namespace gpisvdb {
+
+namespace {
+
+// Helpers are inlined into the traversal so that each of its clones (barnes_hut_packet.cpp) compiles them for its own instruction set.
+#define GPISVDB_LANES_INLINE __attribute__((always_inline)) inline
+#pragma GCC diagnostic ignored "-Wpsabi"  // Lanes never cross a call: every function taking them is inlined
+
+constexpr int kLanes = BarnesHutGpis::kPacket;
+// One double per point of the packet. GCC/Clang vector extensions: the compiler maps the 8 lanes to whatever the
+// target has (4 SSE2, 2 AVX or 1 AVX-512 instruction per operation).
+typedef double Lanes __attribute__((vector_size(kLanes * sizeof(double))));
+using LaneMask = std::uint32_t;  // bit l: lane l
+constexpr LaneMask kAllLanes = (1u << kLanes) - 1;
+
+GPISVDB_LANES_INLINE Lanes splat(double v) {
+    Lanes r;
+    for (int l = 0; l < kLanes; ++l) r[l] = v;
+    return r;
+}
+
+/// 1 in the lanes of `mask`, 0 elsewhere: terms are multiplied by it (every term is finite in every lane).
+GPISVDB_LANES_INLINE Lanes select(LaneMask mask) {
+    Lanes r;
+    for (int l = 0; l < kLanes; ++l) r[l] = (mask >> l) & 1u ? 1.0 : 0.0;
+    return r;
+}
+
+struct LaneVec3 {
+    Lanes v[3];
+    const Lanes& operator[](int i) const { return v[i]; }
+    Lanes& operator[](int i) { return v[i]; }
+};
+
+GPISVDB_LANES_INLINE Lanes dot(const LaneVec3& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+struct LaneKernel {
+    Lanes F1, F2, F3, F4;
+};
+
+// === erf and exp for 8 lanes at once: glibc's vector math library (libmvec), at the widest width the CPU has,
+// chosen once. Elsewhere (other compilers or architectures) a plain loop over the scalar functions.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+extern "C" {
+__m128d _ZGVbN2v_erf(__m128d);
+__m128d _ZGVbN2v_exp(__m128d);
+__m256d _ZGVdN4v_erf(__m256d);
+__m256d _ZGVdN4v_exp(__m256d);
+__m512d _ZGVeN8v_erf(__m512d);
+__m512d _ZGVeN8v_exp(__m512d);
+}
+
+void erfExpSse(const double* x, const double* y, double* ex, double* ey) {
+    for (int k = 0; k < kLanes; k += 2) {
+        _mm_storeu_pd(ex + k, _ZGVbN2v_erf(_mm_loadu_pd(x + k)));
+        _mm_storeu_pd(ey + k, _ZGVbN2v_exp(_mm_loadu_pd(y + k)));
+    }
+}
+__attribute__((target("avx2"))) void erfExpAvx2(const double* x, const double* y, double* ex, double* ey) {
+    for (int k = 0; k < kLanes; k += 4) {
+        _mm256_storeu_pd(ex + k, _ZGVdN4v_erf(_mm256_loadu_pd(x + k)));
+        _mm256_storeu_pd(ey + k, _ZGVdN4v_exp(_mm256_loadu_pd(y + k)));
+    }
+}
+__attribute__((target("avx512f"))) void erfExpAvx512(const double* x, const double* y, double* ex, double* ey) {
+    _mm512_storeu_pd(ex, _ZGVeN8v_erf(_mm512_loadu_pd(x)));
+    _mm512_storeu_pd(ey, _ZGVeN8v_exp(_mm512_loadu_pd(y)));
+}
+using ErfExp = void (*)(const double*, const double*, double*, double*);
+const ErfExp erfExp = [] {
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f")) return ErfExp(erfExpAvx512);
+    if (__builtin_cpu_supports("avx2")) return ErfExp(erfExpAvx2);
+    return ErfExp(erfExpSse);
+}();
+#else
+void erfExp(const double* x, const double* y, double* ex, double* ey) {
+    for (int k = 0; k < kLanes; ++k) ex[k] = std::erf(x[k]), ey[k] = std::exp(y[k]);
+}
+#endif
+
+/// The symmetric 4×4 accumulators: the mean (γ, ∇γ) and the upper triangle of the covariance.
+struct LaneSums {
+    Lanes mean[4];
+    Lanes cov[4][4];  // only a ≤ b is used
+    LaneSums() {
+        for (auto& m : mean) m = splat(0);
+        for (auto& row : cov)
+            for (auto& c : row) c = splat(0);
+    }
+};
+
+}  // namespace
+
+}  // namespace gpisvdb
