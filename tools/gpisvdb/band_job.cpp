@@ -46,7 +46,7 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
                  "also write the Selling stencils (selling_weight_0..5, selling_offset_0..5), from which L can be rebuilt");
 }
 
-BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress) {
+BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress, const BandBuilder& build) {
     const auto start = Clock::now();
     BandJob job;
     job.inputPath = data.path;
@@ -54,6 +54,7 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     options.band = flags.band;
     options.resolutionScale = flags.resolutionScale;
     options.maxMemory = flags.maxMemory.empty() ? 0 : parseBytes(flags.maxMemory);
+    options.build = build;
     job.model = loadModel(data, modelOptions(flags.model));
     job.secondsModel = since(start);
     const auto tBand = Clock::now();

@@ -46,7 +46,8 @@ struct BandJob {
 std::vector<std::string> bandWarnings(const BandJob& job, const BandFlags& flags);
 
 /// Model, resolution, memory check, band: the first half of every band command.
-BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress);
+/// `build` replaces buildBand (a distributed build, mpi/); a rank other than 0 passes quiet flags.
+BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress, const BandBuilder& build = {});
 
 /// What every band command opens before its own work: the input read, the output and (with --report) the report
 /// file opened atomically, the progress bar; then the band built.

@@ -18,7 +18,9 @@ namespace {
 
 using openvdb::Coord;
 
-void checkOptions(const BandOptions& o) {
+}  // namespace
+
+void checkBandOptions(const BandOptions& o) {
     if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize)) throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0", {"BandOptions::voxelSize"});
     if (!(o.etaRelative > 0) || !std::isfinite(o.etaRelative)) throw ParameterError("the band threshold η (BandOptions::etaRelative) must be finite and > 0", {"BandOptions::etaRelative"});
     if (!(o.maxAnisotropy >= 1))
@@ -26,6 +28,8 @@ void checkOptions(const BandOptions& o) {
     if (!std::isfinite(o.iso)) throw ParameterError("the iso-value (BandOptions::iso) must be finite", {"BandOptions::iso"});
     if (o.batchVoxels < 1) throw ParameterError("the batch size (BandOptions::batchVoxels) must be >= 1", {"BandOptions::batchVoxels"});
 }
+
+namespace {
 
 Coord voxelOf(const Vec3d& p, double h) {
     const Vec3d k = p / h;
@@ -38,32 +42,6 @@ Coord voxelOf(const Vec3d& p, double h) {
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-/// Evaluates the GPIS and Kac–Rice at voxel centres h·c for coords[begin, end), in parallel.
-std::vector<BandVoxel> evaluateVoxels(const GpisModel& model, const std::vector<Coord>& coords, std::size_t begin,
-                                      std::size_t end, double h, double iso, const QmcRule& rule,
-                                      const Progress& progress, BandStats& stats) {
-    auto t = Clock::now();
-    const std::size_t n = end - begin;
-    std::vector<Vec3d> xs(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const Coord& c = coords[begin + i];
-        xs[i] = h * Vec3d(c.x(), c.y(), c.z());
-    }
-    const std::vector<ValueGradient> z = model.evaluate(xs, progress);
-    stats.modelSeconds += since(t);
-    t = Clock::now();
-    std::vector<BandVoxel> out(n);
-    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-        progress.checkInterruptAt(i);
-        const SurfaceDensity d = kacRice(z[i], iso, rule);
-        const double g = d.meanGradient.norm();
-        out[i] = {coords[begin + i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
-                  g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero()};
-    });
-    stats.kacRiceSeconds += since(t);
-    return out;
-}
 
 /// A voxel's Selling stencil of T regularised to anisotropy ≤ maxAnisotropy (docs/math.md#resolution).
 VoxelStencil stencilOf(const Mat3d& T, double maxAnisotropy, bool& regularised) {
@@ -197,38 +175,6 @@ private:
     int maxStencilL1_ = 0;
 };
 
-/// η in absolute units: etaRelative × the median μ over the voxels holding samples.
-double absoluteEta(const std::vector<BandVoxel>& values, const std::vector<Coord>& sampleVoxels, double etaRel,
-                   BandStats& stats) {
-    std::vector<double> mus;
-    for (const auto& v : values)
-        if (std::binary_search(sampleVoxels.begin(), sampleVoxels.end(), v.coord)) mus.push_back(v.mu);
-    std::nth_element(mus.begin(), mus.begin() + long(mus.size() / 2), mus.end());
-    stats.medianSampleMu = mus.empty() ? 0.0 : mus[mus.size() / 2];
-    if (!(stats.medianSampleMu > 0))
-        throw InputError("the surface density vanishes at the samples' voxels (sigma far too small for the voxel size?)");
-    stats.etaAbsolute = etaRel * stats.medianSampleMu;
-    return stats.etaAbsolute;
-}
-
-std::vector<Coord> sampleVoxels(const Samples& samples, double h) {
-    std::vector<Coord> v;
-    v.reserve(samples.size());
-    for (const auto& p : samples.position) v.push_back(voxelOf(p, h));
-    std::sort(v.begin(), v.end());
-    v.erase(std::unique(v.begin(), v.end()), v.end());
-    return v;
-}
-
-void checkBudget(std::size_t evaluated, const BandOptions& o, double h) {
-    if (o.maxVoxels && evaluated > o.maxVoxels)
-        throw MemoryLimitError("the band needs more than " + std::to_string(o.maxVoxels) +
-                             " voxels at voxel size " + std::to_string(h) +
-                             ", beyond the voxel budget (BandOptions::maxVoxels): use a larger voxel size (BandOptions::voxelSize), e.g. " +
-                             numberText(2 * h) + ", or raise the budget",
-                             {"BandOptions::maxVoxels", "BandOptions::voxelSize"});
-}
-
 BandResult finish(FoundVoxels&& found, const BandOptions& o, const BandStats& stats, const Progress& progress) {
     progress.checkInterrupt();
     const auto t = Clock::now();
@@ -241,10 +187,55 @@ BandResult finish(FoundVoxels&& found, const BandOptions& o, const BandStats& st
     return r;
 }
 
-constexpr int kNeighbours = 26;
-const std::array<Coord, kNeighbours>& neighbourOffsets() {
-    static const std::array<Coord, kNeighbours> n = [] {
-        std::array<Coord, kNeighbours> a;
+}  // namespace
+
+std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<Coord>& coords, std::size_t begin,
+                                          std::size_t end, double h, double iso, const QmcRule& rule,
+                                          const Progress& progress, BandStats& stats) {
+    auto t = Clock::now();
+    const std::size_t n = end - begin;
+    std::vector<Vec3d> xs(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Coord& c = coords[begin + i];
+        xs[i] = h * Vec3d(c.x(), c.y(), c.z());
+    }
+    const std::vector<ValueGradient> z = model.evaluate(xs, progress);
+    stats.modelSeconds += since(t);
+    t = Clock::now();
+    std::vector<BandVoxel> out(n);
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+        progress.checkInterruptAt(i);
+        const SurfaceDensity d = kacRice(z[i], iso, rule);
+        const double g = d.meanGradient.norm();
+        out[i] = {coords[begin + i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
+                  g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero()};
+    });
+    stats.kacRiceSeconds += since(t);
+    return out;
+}
+
+std::vector<Coord> sampleVoxels(const Samples& samples, double h) {
+    std::vector<Coord> v;
+    v.reserve(samples.size());
+    for (const auto& p : samples.position) v.push_back(voxelOf(p, h));
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    return v;
+}
+
+void checkVoxelBudget(std::size_t evaluated, const BandOptions& o) {
+    const double h = o.voxelSize;
+    if (o.maxVoxels && evaluated > o.maxVoxels)
+        throw MemoryLimitError("the band needs more than " + std::to_string(o.maxVoxels) +
+                             " voxels at voxel size " + std::to_string(h) +
+                             ", beyond the voxel budget (BandOptions::maxVoxels): use a larger voxel size (BandOptions::voxelSize), e.g. " +
+                             numberText(2 * h) + ", or raise the budget",
+                             {"BandOptions::maxVoxels", "BandOptions::voxelSize"});
+}
+
+const std::array<Coord, kBfsNeighbours>& bfsNeighbourOffsets() {
+    static const std::array<Coord, kBfsNeighbours> n = [] {
+        std::array<Coord, kBfsNeighbours> a;
         int k = 0;
         for (int i = -1; i <= 1; ++i)
             for (int j = -1; j <= 1; ++j)
@@ -253,6 +244,26 @@ const std::array<Coord, kNeighbours>& neighbourOffsets() {
         return a;
     }();
     return n;
+}
+
+double etaFromSampleMus(std::vector<double> mus, double etaRel, BandStats& stats) {
+    std::nth_element(mus.begin(), mus.begin() + long(mus.size() / 2), mus.end());
+    stats.medianSampleMu = mus.empty() ? 0.0 : mus[mus.size() / 2];
+    if (!(stats.medianSampleMu > 0))
+        throw InputError("the surface density vanishes at the samples' voxels (sigma far too small for the voxel size?)");
+    stats.etaAbsolute = etaRel * stats.medianSampleMu;
+    return stats.etaAbsolute;
+}
+
+namespace {
+
+/// η in absolute units: etaRelative × the median μ over the voxels holding samples.
+double absoluteEta(const std::vector<BandVoxel>& values, const std::vector<Coord>& sampleVoxels, double etaRel,
+                   BandStats& stats) {
+    std::vector<double> mus;
+    for (const auto& v : values)
+        if (std::binary_search(sampleVoxels.begin(), sampleVoxels.end(), v.coord)) mus.push_back(v.mu);
+    return etaFromSampleMus(std::move(mus), etaRel, stats);
 }
 
 /// One round of either builder: evaluates a BFS level (or a scan box) in batches, keeps the voxels with μ > η
@@ -275,14 +286,14 @@ struct Rounds {
     void round(const std::vector<Coord>& coords, Kept&& kept) {
         progress.checkInterrupt();
         stats.evaluated += coords.size();
-        checkBudget(stats.evaluated, options, options.voxelSize);
+        checkVoxelBudget(stats.evaluated, options);
         const bool first = stats.levels++ == 0;
         std::vector<BandVoxel> firstRound;
         // In batches: a point's Gaussians do not depend on the other points of its batch (BarnesHutGpis::evaluate),
         // so neither does the band; the batch bounds the transient memory whatever the size of a BFS level.
         for (std::size_t begin = 0; begin < coords.size(); begin += options.batchVoxels) {
             const std::size_t end = std::min(coords.size(), begin + options.batchVoxels);
-            std::vector<BandVoxel> values = evaluateVoxels(model, coords, begin, end, options.voxelSize, options.iso,
+            std::vector<BandVoxel> values = evaluateBandVoxels(model, coords, begin, end, options.voxelSize, options.iso,
                                                            rule, progress.interruptOnly(), stats);
             if (first) {
                 firstRound.insert(firstRound.end(), values.begin(), values.end());
@@ -327,7 +338,7 @@ BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, doubl
 }
 
 BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
-    checkOptions(o);
+    checkBandOptions(o);
     const auto start = Clock::now();
     Rounds rounds(model, samples, o, progress);
 
@@ -336,7 +347,7 @@ BandResult buildBand(const GpisModel& model, const Samples& samples, const BandO
     auto seen = visited.getAccessor();
     std::vector<Coord> frontier;
     for (const Coord& c : rounds.sampleVox) {
-        for (const Coord& d : neighbourOffsets())
+        for (const Coord& d : bfsNeighbourOffsets())
             if (!seen.isValueOn(c + d)) seen.setValueOn(c + d), frontier.push_back(c + d);
         if (!seen.isValueOn(c)) seen.setValueOn(c), frontier.push_back(c);
     }
@@ -344,7 +355,7 @@ BandResult buildBand(const GpisModel& model, const Samples& samples, const BandO
     while (!frontier.empty()) {
         std::vector<Coord> next;
         rounds.round(frontier, [&](const Coord& c) {
-            for (const Coord& d : neighbourOffsets())
+            for (const Coord& d : bfsNeighbourOffsets())
                 if (!seen.isValueOn(c + d)) seen.setValueOn(c + d), next.push_back(c + d);
         });
         frontier.swap(next);
@@ -357,7 +368,7 @@ BandResult buildBand(const GpisModel& model, const Samples& samples, const BandO
 }
 
 BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& o, const Progress& progress) {
-    checkOptions(o);
+    checkBandOptions(o);
     const auto start = Clock::now();
     Rounds rounds(model, samples, o, progress);
     openvdb::CoordBBox box;

@@ -102,7 +102,8 @@ DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, con
     // The backstop while building, should the estimate be low: evaluated voxels are ≈ 1.4–1.6 band voxels (measured).
     const double perVoxel = need / std::max(1.0, voxels);
     out.options.maxVoxels = std::size_t(kEvaluatedPerBandVoxel * out.maxMemory / perVoxel);
-    out.result = buildBand(model, samples, out.options, progress);
+    out.result = options.build ? options.build(model, samples, out.options, progress)
+                               : buildBand(model, samples, out.options, progress);
     return out;
 }
 

@@ -2,12 +2,14 @@
 // Building the band: a breadth-first search from the samples' voxels (the method), and a scan of the bounding
 // box (the baseline it is measured and tested against). Both evaluate the GPIS, then μ and T by Kac–Rice, at
 // every voxel they visit, and keep the voxels with μ > η.
+#include <array>
 #include <cstddef>
 #include <vector>
 
 #include "gpisvdb/band/band.h"
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/input/samples.h"
+#include "gpisvdb/kacrice/qmc_rule.h"
 #include "gpisvdb/model/gpis_model.h"
 
 namespace gpisvdb {
@@ -63,5 +65,32 @@ BandResult buildBand(const GpisModel& model, const Samples& samples, const BandO
 /// Baseline: evaluates every voxel of the samples' bounding box, grown until no band voxel touches its boundary.
 BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& options,
                     const Progress& progress = {});
+
+// === The steps buildBand is made of, for builders that distribute them (mpi/, docs/mpi.md)
+
+/// Throws ParameterError for the options buildBand refuses.
+void checkBandOptions(const BandOptions& options);
+
+/// The voxels holding samples (index space; sorted, distinct): with their 26 neighbours, the BFS's first level.
+/// Throws ParameterError when h is so small that an index coordinate would pass 1e9.
+std::vector<openvdb::Coord> sampleVoxels(const Samples& samples, double voxelSize);
+
+/// The offsets of a voxel's 26 neighbours, which a BFS level visits around each voxel it keeps.
+constexpr int kBfsNeighbours = 26;
+const std::array<openvdb::Coord, kBfsNeighbours>& bfsNeighbourOffsets();
+
+/// The GPIS, then μ, T, γ, √c₀₀ and the normal by Kac–Rice, at the voxel centres h·c of coords[begin, end), in
+/// parallel; the seconds of each part are added to stats.modelSeconds and stats.kacRiceSeconds. A voxel's result does
+/// not depend on the others evaluated with it.
+std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<openvdb::Coord>& coords,
+                                          std::size_t begin, std::size_t end, double voxelSize, double iso,
+                                          const QmcRule& rule, const Progress& progress, BandStats& stats);
+
+/// η = etaRelative × the median of `mus` (μ at the samples' voxels); sets stats.medianSampleMu and etaAbsolute.
+/// Throws InputError when the median is not positive.
+double etaFromSampleMus(std::vector<double> mus, double etaRelative, BandStats& stats);
+
+/// Throws MemoryLimitError once `evaluated` voxels pass options.maxVoxels (when set).
+void checkVoxelBudget(std::size_t evaluated, const BandOptions& options);
 
 }  // namespace gpisvdb

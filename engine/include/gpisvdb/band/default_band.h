@@ -3,6 +3,7 @@
 // size to the resolution rule (paper Eq. 25 and μ's width; stencil/resolution.h), and a band whose estimated size
 // would not fit in memory is refused before the model is evaluated at a single voxel.
 #include <cstddef>
+#include <functional>
 #include <limits>
 
 #include "gpisvdb/band/build_band.h"
@@ -53,6 +54,10 @@ double bandWriteBytes(double voxels);
 /// units³ and ²) at voxel size h, batch size and the resident set before the build (bytes).
 BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes);
 
+/// What builds the band once its options are resolved: buildBand by default; a distributed build (mpi/) returns this
+/// process's part of the band with the whole band's statistics.
+using BandBuilder = std::function<BandResult(const GpisModel&, const Samples&, const BandOptions&, const Progress&)>;
+
 struct DefaultBandOptions {
     DefaultBandOptions() { band.iso = std::numeric_limits<double>::quiet_NaN(); }
     /// voxelSize 0: the default h of chooseResolution; iso NaN: the model's naturalIso(); maxVoxels is set from
@@ -60,6 +65,7 @@ struct DefaultBandOptions {
     BandOptions band;
     double resolutionScale = 1.0;  ///< c of ResolutionOptions (> 0): scales the default voxel size
     double maxMemory = 0;          ///< bytes the band may need while it is built (> 0; 0: half the physical memory)
+    BandBuilder build;             ///< empty: buildBand
 };
 
 struct DefaultBand {

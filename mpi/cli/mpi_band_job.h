@@ -1,0 +1,30 @@
+#pragma once
+// What gpisvdb-mpi's band commands share (docs/mpi.md): the input read and the outputs opened (rank 0) with every
+// rank agreeing on failure, the band built across the ranks, gathered on rank 0 for the .vdb, and the report's
+// `mpi` section.
+#include <memory>
+#include <string>
+
+#include "band_job.h"
+#include "gpisvdb/mpi/distributed_band.h"
+
+namespace gpisvdb::cli {
+
+struct MpiBandCommand {
+    std::unique_ptr<AtomicOutput> out;     ///< rank 0 only
+    std::unique_ptr<AtomicOutput> report;  ///< rank 0 with --report only
+    Progress progress;                     ///< a bar on rank 0 (unless --quiet); Ctrl-C polled on every rank
+    BandJob job;                           ///< on rank 0 its band is the whole band (gathered); elsewhere empty
+    mpi::DistributedBand band;             ///< this rank's part
+};
+
+/// Reads the input, opens the outputs, builds the band across `ranks` and gathers it on rank 0. Collective; errors
+/// are agreed (mpi::together).
+MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& input, const std::string& output,
+                                   const BandFlags& flags);
+
+/// The report's `mpi` section: ranks, voxels per rank (while searching and after balancing), voxels evaluated per
+/// rank, bytes sent and seconds spent in exchanges (summed over ranks), and `extra` (e.g. the solver's halo).
+nlohmann::json mpiReport(const mpi::Ranks& ranks, const mpi::DistributedBand& band, nlohmann::json extra = {});
+
+}  // namespace gpisvdb::cli

@@ -1,0 +1,159 @@
+#include "gpisvdb/mpi/petsc_laplacian.h"
+
+#include <algorithm>
+#include <array>
+#include <string>
+
+#include "gpisvdb/core/errors.h"
+
+namespace gpisvdb::mpi {
+
+void quietPetscErrors() { PetscPushErrorHandler(PetscReturnErrorHandler, nullptr); }
+
+void checkPetsc(PetscErrorCode code, const char* what) {
+    if (code == 0) return;
+    const char* text = nullptr;
+    PetscErrorMessage(code, &text, nullptr);
+    throw Error(std::string("PETSc failed in ") + what + ": " + (text ? text : "unknown error"));
+}
+
+PetscMatrix& PetscMatrix::operator=(PetscMatrix&& o) noexcept {
+    if (this != &o) {
+        if (m_) MatDestroy(&m_);
+        m_ = o.m_;
+        o.m_ = nullptr;
+    }
+    return *this;
+}
+
+PetscMatrix::~PetscMatrix() {
+    if (m_) MatDestroy(&m_);
+}
+
+namespace {
+
+using Key = std::array<std::int32_t, 3>;
+Key keyOf(const openvdb::Coord& c) { return {c.x(), c.y(), c.z()}; }
+
+}  // namespace
+
+std::vector<std::int64_t> globalStencilNeighbours(const Ranks& ranks, const DistributedBand& d) {
+    const Band& band = d.local;
+    const std::size_t P = std::size_t(ranks.size), n = band.size();
+    std::vector<std::int64_t> out(12 * n, -1);
+    std::vector<std::vector<Key>> ask(P);
+    // === Neighbours held here: through the index tree; the others: asked of their rank (each coordinate once)
+    {
+        auto acc = band.index->getConstAccessor();
+        for (std::size_t i = 0; i < n; ++i) {
+            const VoxelStencil& st = band.stencil[i];
+            for (int k = 0; k < st.count; ++k)
+                for (int s = 0; s < 2; ++s) {
+                    const auto& e = st.offset[std::size_t(k)];
+                    const int sign = s == 0 ? 1 : -1;
+                    const openvdb::Coord c = band.coord[i] + openvdb::Coord(sign * e[0], sign * e[1], sign * e[2]);
+                    const int owner = d.partition.owner(c);
+                    if (owner == ranks.rank) {
+                        const int j = acc.getValue(c);
+                        out[12 * i + std::size_t(2 * k + s)] = j >= 0 ? std::int64_t(d.offset) + j : -1;
+                    } else {
+                        ask[std::size_t(owner)].push_back(keyOf(c));
+                    }
+                }
+        }
+    }
+    for (auto& list : ask) {
+        std::sort(list.begin(), list.end());
+        list.erase(std::unique(list.begin(), list.end()), list.end());
+    }
+    std::vector<int> from;
+    const std::vector<Key> asked = allToAll(ranks, ask, &from);
+    // === Answer: the linear index of each coordinate asked of this rank, −1 outside the band
+    std::vector<std::vector<std::int64_t>> answer(P);
+    {
+        auto acc = band.index->getConstAccessor();
+        std::size_t at = 0;
+        for (std::size_t r = 0; r < P; ++r)
+            for (int q = 0; q < from[r]; ++q, ++at) {
+                const int j = acc.getValue(openvdb::Coord(asked[at][0], asked[at][1], asked[at][2]));
+                answer[r].push_back(j >= 0 ? std::int64_t(d.offset) + j : -1);
+            }
+    }
+    std::vector<int> got;
+    const std::vector<std::int64_t> answers = allToAll(ranks, answer, &got);
+    // === Fill the remote slots: the answer to a coordinate sits at its place in the sorted list asked of its rank
+    std::vector<std::size_t> base(P, 0);
+    for (std::size_t r = 1; r < P; ++r) base[r] = base[r - 1] + std::size_t(got[r - 1]);
+    for (std::size_t i = 0; i < n; ++i) {
+        const VoxelStencil& st = band.stencil[i];
+        for (int k = 0; k < st.count; ++k)
+            for (int s = 0; s < 2; ++s) {
+                const auto& e = st.offset[std::size_t(k)];
+                const int sign = s == 0 ? 1 : -1;
+                const openvdb::Coord c = band.coord[i] + openvdb::Coord(sign * e[0], sign * e[1], sign * e[2]);
+                const std::size_t owner = std::size_t(d.partition.owner(c));
+                if (int(owner) == ranks.rank) continue;
+                const auto& list = ask[owner];
+                const std::size_t q = std::size_t(std::lower_bound(list.begin(), list.end(), keyOf(c)) - list.begin());
+                out[12 * i + std::size_t(2 * k + s)] = answers[base[owner] + q];
+            }
+    }
+    return out;
+}
+
+PetscLaplacian assembleLaplacianPetsc(const Ranks& ranks, const DistributedBand& d) {
+    const Band& band = d.local;
+    const std::size_t n = band.size();
+    if (d.globalSize >= std::size_t(PETSC_MAX_INT))
+        throw Error("the band has more voxels than this PETSc's 32-bit indices can number (2^31): build PETSc with "
+                    "--with-64-bit-indices, or use a coarser voxel size");
+    const std::vector<std::int64_t> nb = globalStencilNeighbours(ranks, d);
+    const double halfH = 0.5 * band.voxelSize;
+
+    // === Contributions as coordinate triplets (PETSc sums repeated entries and sends other ranks' rows to them):
+    // the rows held here summed into one diagonal entry each, every edge inside the band two off-diagonal entries,
+    // and an edge to another rank's voxel also that voxel's diagonal share.
+    std::vector<double> diagonal(n, 0.0);
+    std::vector<PetscInt> row, col;
+    std::vector<PetscScalar> value;
+    const auto add = [&](std::int64_t i, std::int64_t j, double v) {
+        row.push_back(PetscInt(i)), col.push_back(PetscInt(j)), value.push_back(v);
+    };
+    const std::int64_t first = std::int64_t(d.offset), last = first + std::int64_t(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::int64_t gi = first + std::int64_t(i);
+        for (int slot = 0; slot < 2 * band.stencil[i].count; ++slot) {
+            const double w = halfH * double(band.stencil[i].weight[std::size_t(slot / 2)]);
+            diagonal[i] += w;  // u = 0 outside the band: an edge leaving it adds to the diagonal only
+            const std::int64_t j = nb[12 * i + std::size_t(slot)];
+            if (j < 0) continue;
+            if (j >= first && j < last) diagonal[std::size_t(j - first)] += w;
+            else add(j, j, w);
+            add(gi, j, -w);
+            add(j, gi, -w);
+        }
+    }
+    for (std::size_t i = 0; i < n; ++i) add(first + std::int64_t(i), first + std::int64_t(i), diagonal[i]);
+
+    Mat L = nullptr;
+    checkPetsc(MatCreate(ranks.comm, &L), "MatCreate");
+    PetscLaplacian out;
+    out.L = PetscMatrix(L);
+    checkPetsc(MatSetSizes(L, PetscInt(n), PetscInt(n), PetscInt(d.globalSize), PetscInt(d.globalSize)), "MatSetSizes");
+    checkPetsc(MatSetType(L, MATMPIAIJ), "MatSetType");
+    checkPetsc(MatSetPreallocationCOO(L, PetscCount(row.size()), row.data(), col.data()), "MatSetPreallocationCOO");
+    std::vector<PetscInt>().swap(row), std::vector<PetscInt>().swap(col);
+    checkPetsc(MatSetValuesCOO(L, value.data(), ADD_VALUES), "MatSetValuesCOO");
+    checkPetsc(MatSetOption(L, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+    checkPetsc(MatSetOption(L, MAT_SPD, PETSC_TRUE), "MatSetOption");
+    // === The halo: the off-diagonal block's columns are the other ranks' unknowns a product reads here
+    Mat Ad = nullptr, Ao = nullptr;
+    const PetscInt* garray = nullptr;
+    checkPetsc(MatMPIAIJGetSeqAIJ(L, &Ad, &Ao, &garray), "MatMPIAIJGetSeqAIJ");
+    PetscInt rows = 0, cols = 0;
+    checkPetsc(MatGetSize(Ao, &rows, &cols), "MatGetSize");
+    out.ghosts = std::size_t(cols);
+    return out;
+}
+
+}  // namespace gpisvdb::mpi
