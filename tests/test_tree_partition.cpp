@@ -1,4 +1,4 @@
-// The band's linear order and its cuts among MPI ranks (band/tree_partition.h, docs/mpi.md#partition).
+// The band's linear order and its cuts among MPI ranks (band/tree_partition.h, docs/mpi.md#band).
 #include <catch2/catch.hpp>
 
 #include <algorithm>

@@ -1,5 +1,7 @@
 #include "mpi_band_job.h"
 
+#include <sys/resource.h>
+
 #include <exception>
 #include <iostream>
 
@@ -48,13 +50,17 @@ MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& i
 
 nlohmann::json mpiReport(const mpi::Ranks& ranks, const mpi::DistributedBand& band, nlohmann::json extra) {
     const double bytes = mpi::sum(ranks, ranks.bytesSent), seconds = mpi::max(ranks, ranks.secondsExchanging);
+    struct rusage ru {};
+    getrusage(RUSAGE_SELF, &ru);
+    const std::vector<double> peaks = mpi::allGather(ranks, std::vector<double>{double(ru.ru_maxrss) * 1024.0});
     nlohmann::json r = {{"ranks", ranks.size},
                         {"voxels_per_rank", band.counts},
                         {"search_voxels_per_rank", band.searchVoxels},
                         {"search_evaluated_per_rank", band.searchEvaluated},
                         {"balance_seconds", band.balanceSeconds},
                         {"bytes_exchanged", bytes},
-                        {"max_seconds_exchanging", seconds}};
+                        {"max_seconds_exchanging", seconds},
+                        {"peak_rss_bytes_per_rank", peaks}};
     for (auto it = extra.begin(); it != extra.end(); ++it) r[it.key()] = it.value();
     return r;
 }

@@ -24,7 +24,8 @@ MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& i
                                    const BandFlags& flags);
 
 /// The report's `mpi` section: ranks, voxels per rank (while searching and after balancing), voxels evaluated per
-/// rank, bytes sent and seconds spent in exchanges (summed over ranks), and `extra` (e.g. the solver's halo).
+/// rank, bytes sent in exchanges (summed over ranks) and the longest time a rank spent in them, each rank's peak
+/// resident set so far, and `extra` (e.g. the solver's halo). Collective.
 nlohmann::json mpiReport(const mpi::Ranks& ranks, const mpi::DistributedBand& band, nlohmann::json extra = {});
 
 }  // namespace gpisvdb::cli

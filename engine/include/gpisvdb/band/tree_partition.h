@@ -1,5 +1,5 @@
 #pragma once
-// The band's linear order and its cuts among processes (docs/mpi.md#partition). A band's linear indices follow
+// The band's linear order and its cuts among processes (docs/mpi.md#band). A band's linear indices follow
 // OpenVDB's value-on iteration over its index tree (Band::coord): 8³ leaves, 16³ of them in a 128³ node, 32³ of
 // those in a 4096³ node, each level x-major, the 4096³ nodes in lexicographic order of their origins. That order
 // is a space-filling curve of nested blocks, so a contiguous range of it is a compact set of leaves; cutting it
