@@ -8,6 +8,7 @@
 #include <openvdb/openvdb.h>
 
 #include <fstream>
+#include <sstream>
 #include <map>
 
 #include "cli_run.h"
@@ -155,6 +156,47 @@ TEST_CASE("mpi: SLEPc's eigenpairs (MUMPS shift-invert and LOBPCG) equal gpisvdb
             CHECK(worst <= 1e-5 * scale);
         }
     }
+}
+
+TEST_CASE("mpi: geodesic (marched on rank 0) equals gpisvdb geodesic to the bit, paths included, and regress within the eigen tolerance", "[mpi]") {
+    const std::string geo = kBunny + " --source 0.5,6,1 --target -2,9,0";
+    const std::string oneVdb = temp("mpi_geo_one.vdb"), onePaths = temp("mpi_geo_one.json");
+    REQUIRE(run("geodesic " + geo + " -o " + oneVdb + " --paths " + onePaths).code == 0);
+    const std::string out = temp("mpi_geo.vdb"), paths = temp("mpi_geo.json");
+    Run r = runMpi(2, "geodesic " + geo + " -o " + out + " --paths " + paths);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    CHECK(readGrids(out) == readGrids(oneVdb));
+    CHECK(readJson(paths) == readJson(onePaths));
+
+    // Data on the surface: every 50th vertex of the bunny, valued by its x
+    std::ifstream obj(gpisvdb::test::dataPath("bunny.obj"));
+    std::string line, csv;
+    for (int k = 0; std::getline(obj, line);)
+        if (line.rfind("v ", 0) == 0 && ++k % 50 == 0) {
+            std::istringstream v(line.substr(2));
+            double x, y, z;
+            v >> x >> y >> z;
+            csv += std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(z) + "," + std::to_string(x) + "\n";
+        }
+    const std::string data = temp("mpi_regress.csv", csv), args = kBunny + " -k 12 --data " + data;
+    const std::string oneRegress = temp("mpi_regress_one.vdb");
+    REQUIRE(run("regress " + args + " -o " + oneRegress).code == 0);
+    const std::string regressOut = temp("mpi_regress.vdb"), report = temp("mpi_regress.json");
+    r = runMpi(2, "regress " + args + " -o " + regressOut + " --report " + report);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const Grids expected = readGrids(oneRegress), got = readGrids(regressOut);
+    for (const std::string name : {"regression_mean", "regression_variance"}) {
+        double worst = 0, scale = 0;
+        for (const auto& [c, v] : expected.at(name)) {
+            worst = std::max(worst, double(std::abs(got.at(name).at(c)[0] - v[0])));
+            scale = std::max(scale, double(std::abs(v[0])));
+        }
+        INFO(name);
+        CHECK(worst <= 1e-5 * scale);
+    }
+    CHECK(readJson(report)["spectrum"]["method"].get<std::string>().find("SLEPc") != std::string::npos);
 }
 
 TEST_CASE("mpi: an error on one rank or all ends every rank with one message, exit 1 and no output", "[mpi]") {

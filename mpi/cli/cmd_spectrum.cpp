@@ -36,7 +36,10 @@ void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             const BandJob& job = run.job;
             const mpi::DistributedSpectrum s = mpi::spectrumSlepc(ranks, run.band, a->eigen, run.progress);
             std::vector<std::vector<float>> vectors;
-            for (const std::vector<float>& v : s.local) vectors.push_back(mpi::gatherChannel(ranks, v));
+            for (const std::vector<double>& v : s.local) {
+                const std::vector<double> all = mpi::gatherChannel(ranks, v);
+                vectors.emplace_back(all.begin(), all.end());  // float grids, as gpisvdb spectrum writes them
+            }
             const std::size_t ghosts = mpi::sum(ranks, s.ghosts);
             const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
             mpi::together(ranks, [&] {

@@ -1,4 +1,4 @@
-// gpisvdb-mpi: gpisvdb's band commands across MPI ranks (docs/mpi.md). Run under mpirun (or alone: one rank).
+// gpisvdb-mpi: gpisvdb's band, green, spectrum, geodesic and regress across MPI ranks (docs/mpi.md). Run under mpirun (or alone: one rank).
 // Exit codes as gpisvdb's. An error every rank knows of (the input, a parameter, the output on rank 0, a memory
 // refusal) is printed once, by rank 0, and every rank exits 1 leaving no output; an error one rank met alone is
 // printed by that rank, which then ends the job (MPI_Abort).
@@ -17,7 +17,7 @@ namespace {
 
 int run(int argc, char** argv, const gpisvdb::mpi::Ranks& ranks) {
     using namespace gpisvdb;
-    CLI::App app{"gpisvdb-mpi: gpisvdb's band, green and spectrum commands across MPI ranks (PETSc, hypre, SLEPc)"};
+    CLI::App app{"gpisvdb-mpi: gpisvdb's band, green, spectrum, geodesic and regress commands across MPI ranks (PETSc, hypre, SLEPc)"};
     app.set_version_flag("--version", std::string("gpisvdb-mpi ") + GPISVDB_VERSION);
     app.require_subcommand(1);
     app.footer("Run under mpirun; every rank reads the input. Exit codes as gpisvdb's.\n"
@@ -26,6 +26,8 @@ int run(int argc, char** argv, const gpisvdb::mpi::Ranks& ranks) {
     cli::addMpiBand(app, action, ranks);
     cli::addMpiGreen(app, action, ranks);
     cli::addMpiSpectrum(app, action, ranks);
+    cli::addMpiGeodesic(app, action, ranks);
+    cli::addMpiRegress(app, action, ranks);
     for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
     const bool speaks = ranks.rank == 0;
     try {

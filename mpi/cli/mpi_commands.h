@@ -11,5 +11,7 @@ namespace gpisvdb::cli {
 void addMpiBand(CLI::App& app, Action& action, const mpi::Ranks& ranks);
 void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks);
 void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks);
+void addMpiGeodesic(CLI::App& app, Action& action, const mpi::Ranks& ranks);
+void addMpiRegress(CLI::App& app, Action& action, const mpi::Ranks& ranks);
 
 }  // namespace gpisvdb::cli

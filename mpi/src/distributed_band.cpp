@@ -214,8 +214,6 @@ void gatherInto(const Ranks& ranks, const std::vector<Value>& local, std::vector
 
 }  // namespace
 
-std::vector<float> gatherChannel(const Ranks& ranks, const std::vector<float>& local) { return gatherToRoot(ranks, local); }
-
 Band gatherBand(const Ranks& ranks, const DistributedBand& d) {
     Band b;
     b.voxelSize = d.local.voxelSize;

@@ -110,40 +110,86 @@ PetscLaplacian assembleLaplacianPetsc(const Ranks& ranks, const DistributedBand&
     const std::vector<std::int64_t> nb = globalStencilNeighbours(ranks, d);
     const double halfH = 0.5 * band.voxelSize;
 
-    // === Contributions as coordinate triplets (PETSc sums repeated entries and sends other ranks' rows to them):
-    // the rows held here summed into one diagonal entry each, every edge inside the band two off-diagonal entries,
-    // and an edge to another rank's voxel also that voxel's diagonal share.
-    std::vector<double> diagonal(n, 0.0);
-    std::vector<PetscInt> row, col;
-    std::vector<PetscScalar> value;
-    const auto add = [&](std::int64_t i, std::int64_t j, double v) {
-        row.push_back(PetscInt(i)), col.push_back(PetscInt(j)), value.push_back(v);
+    // === Contributions: each edge of a voxel's stencil adds w to both ends' diagonals and −w to both off-diagonal
+    // entries. Rows held here are counted, then filled in place; another rank's row goes to it as a triplet.
+    struct Triplet {
+        std::int64_t row, col;
+        double value;
     };
     const std::int64_t first = std::int64_t(d.offset), last = first + std::int64_t(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const std::int64_t gi = first + std::int64_t(i);
+    std::vector<std::int64_t> rankStart(d.counts.size() + 1, 0);
+    for (std::size_t r = 0; r < d.counts.size(); ++r) rankStart[r + 1] = rankStart[r] + std::int64_t(d.counts[r]);
+    const auto rankOf = [&](std::int64_t j) {
+        return std::size_t(std::upper_bound(rankStart.begin(), rankStart.end(), j) - rankStart.begin()) - 1;
+    };
+    std::vector<double> diagonal(n, 0.0);
+    std::vector<std::vector<Triplet>> toRank(std::size_t(ranks.size));
+    std::vector<PetscInt> start(n + 1, 0);
+    for (std::size_t i = 0; i < n; ++i)
         for (int slot = 0; slot < 2 * band.stencil[i].count; ++slot) {
             const double w = halfH * double(band.stencil[i].weight[std::size_t(slot / 2)]);
             diagonal[i] += w;  // u = 0 outside the band: an edge leaving it adds to the diagonal only
             const std::int64_t j = nb[12 * i + std::size_t(slot)];
             if (j < 0) continue;
-            if (j >= first && j < last) diagonal[std::size_t(j - first)] += w;
-            else add(j, j, w);
-            add(gi, j, -w);
-            add(j, gi, -w);
+            ++start[i + 1];
+            if (j >= first && j < last) {
+                diagonal[std::size_t(j - first)] += w;
+                ++start[std::size_t(j - first) + 1];
+            } else {
+                auto& list = toRank[rankOf(j)];
+                list.push_back({j, j, w});
+                list.push_back({j, first + std::int64_t(i), -w});
+            }
         }
+    const std::vector<Triplet> received = allToAll(ranks, toRank);
+    std::vector<std::vector<Triplet>>().swap(toRank);
+    for (const Triplet& t : received)
+        if (t.row == t.col) diagonal[std::size_t(t.row - first)] += t.value;
+        else ++start[std::size_t(t.row - first) + 1];
+    for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i] + 1;  // + the diagonal
+    std::vector<PetscInt> column(static_cast<std::size_t>(start[n]));
+    std::vector<PetscScalar> value(static_cast<std::size_t>(start[n]));
+    {
+        std::vector<PetscInt> cursor(start.begin(), start.end() - 1);
+        const auto put = [&](std::size_t row, std::int64_t col, double v) {
+            column[std::size_t(cursor[row])] = PetscInt(col), value[std::size_t(cursor[row]++)] = v;
+        };
+        for (std::size_t i = 0; i < n; ++i) put(i, first + std::int64_t(i), diagonal[i]);
+        for (std::size_t i = 0; i < n; ++i)
+            for (int slot = 0; slot < 2 * band.stencil[i].count; ++slot) {
+                const std::int64_t j = nb[12 * i + std::size_t(slot)];
+                if (j < 0) continue;
+                const double w = halfH * double(band.stencil[i].weight[std::size_t(slot / 2)]);
+                put(i, j, -w);
+                if (j >= first && j < last) put(std::size_t(j - first), first + std::int64_t(i), -w);
+            }
+        for (const Triplet& t : received)
+            if (t.row != t.col) put(std::size_t(t.row - first), t.col, t.value);
     }
-    for (std::size_t i = 0; i < n; ++i) add(first + std::int64_t(i), first + std::int64_t(i), diagonal[i]);
+    // === Each row sorted by column, equal columns summed: the compressed rows PETSc takes
+    std::vector<PetscInt> rowStart(n + 1, 0);
+    {
+        std::vector<std::pair<PetscInt, PetscScalar>> row;
+        PetscInt at = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+            row.clear();
+            for (PetscInt e = start[i]; e < start[i + 1]; ++e) row.emplace_back(column[std::size_t(e)], value[std::size_t(e)]);
+            std::stable_sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+            rowStart[i] = at;
+            for (const auto& [c, v] : row) {
+                if (at > rowStart[i] && column[std::size_t(at - 1)] == c) value[std::size_t(at - 1)] += v;
+                else column[std::size_t(at)] = c, value[std::size_t(at++)] = v;
+            }
+        }
+        rowStart[n] = at;
+    }
 
     Mat L = nullptr;
-    checkPetsc(MatCreate(ranks.comm, &L), "MatCreate");
+    checkPetsc(MatCreateMPIAIJWithArrays(ranks.comm, PetscInt(n), PetscInt(n), PetscInt(d.globalSize),
+                                         PetscInt(d.globalSize), rowStart.data(), column.data(), value.data(), &L),
+               "MatCreateMPIAIJWithArrays");
     PetscLaplacian out;
     out.L = PetscMatrix(L);
-    checkPetsc(MatSetSizes(L, PetscInt(n), PetscInt(n), PetscInt(d.globalSize), PetscInt(d.globalSize)), "MatSetSizes");
-    checkPetsc(MatSetType(L, MATMPIAIJ), "MatSetType");
-    checkPetsc(MatSetPreallocationCOO(L, PetscCount(row.size()), row.data(), col.data()), "MatSetPreallocationCOO");
-    std::vector<PetscInt>().swap(row), std::vector<PetscInt>().swap(col);
-    checkPetsc(MatSetValuesCOO(L, value.data(), ADD_VALUES), "MatSetValuesCOO");
     checkPetsc(MatSetOption(L, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
     checkPetsc(MatSetOption(L, MAT_SPD, PETSC_TRUE), "MatSetOption");
     // === The halo: the off-diagonal block's columns are the other ranks' unknowns a product reads here

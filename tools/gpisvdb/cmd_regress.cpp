@@ -1,39 +1,17 @@
 // gpisvdb regress INPUT --data DATA.csv -o OUT.vdb: Gaussian-process regression of scalar data on the GPIS with
 // the Matérn kernel of its Laplacian eigenpairs (paper Eq. 26, Fig. 9).
 #include <chrono>
-#include <cmath>
-#include <iostream>
-#include <limits>
 
-#include "band_job.h"
 #include "commands.h"
-#include "gpisvdb/core/errors.h"
-#include "gpisvdb/input/point_data.h"
-#include "gpisvdb/output/write_vdb.h"
-#include "gpisvdb/tasks/matern.h"
+#include "regress_job.h"
 #include "spectrum_job.h"
 
 namespace gpisvdb::cli {
 
 void addRegress(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("regress", "Gaussian-process regression of scalar data on the GPIS (Matern kernel), as a .vdb");
-    struct Args {
-        std::string input, output, data, nu = "1.5";
-        double kappa = 0, amplitude = 0;
-        BandFlags flags;
-        EigenOptions eigen;
-    };
-    auto a = std::make_shared<Args>();
-    a->eigen.count = 200;
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
-    cmd->add_option("--data", a->data, "CSV of x,y,z,value[,noise] (world units; noise: std of the value, 0 = exact)")->required();
-    cmd->add_option("-o,--output", a->output, "output .vdb (band grids, regression_mean, regression_variance)")->required();
-    cmd->add_option("--nu", a->nu, "Matern smoothness: 0.5, 1.5, 2.5, any value > 0, or inf (squared exponential)")
-        ->capture_default_str();
-    cmd->add_option("--kappa", a->kappa, "Matern length scale kappa (world units, > 0; default 0.1 sqrt(expected area))");
-    cmd->add_option("--amplitude", a->amplitude, "prior variance (data units^2, > 0; default the variance of the values)");
-    addEigenFlags(*cmd, a->eigen);
-    addBandFlags(*cmd, a->flags);
+    auto a = std::make_shared<RegressArgs>();
+    addRegressFlags(*cmd, *a);
     cmd->footer("Prior: constant mean (the data mean) + a Matern GP built from the k lowest eigenpairs (-k, default 200).\n"
                 "Data points must lie in the band (on the shape); the eigenvectors are interpolated trilinearly there.\n"
                 "Example:\n  gpisvdb regress bunny.obj --data temperature.csv --nu 1.5 -o regression.vdb --sigma 1");
@@ -42,97 +20,16 @@ void addRegress(CLI::App& app, Action& action) {
             using Clock = std::chrono::steady_clock;
             const auto start = Clock::now();
             const auto threads = limitThreads(a->flags.model.threads);
-            // === Parameters first: nothing runs on a bad one
-            RegressionOptions ro;
-            if (a->nu == "inf" || a->nu == "infinity") {
-                ro.kernel.nu = std::numeric_limits<double>::infinity();
-            } else {
-                std::size_t used = 0;
-                try {
-                    ro.kernel.nu = std::stod(a->nu, &used);
-                } catch (const std::exception&) {
-                    used = 0;
-                }
-                if (used != a->nu.size() || !(ro.kernel.nu > 0) || !std::isfinite(ro.kernel.nu))
-                    throw ParameterError("--nu must be a number > 0 or inf, got '" + a->nu + "'");
-            }
-            if (a->kappa < 0 || !std::isfinite(a->kappa)) throw ParameterError("--kappa must be > 0");
-            if (a->amplitude < 0 || !std::isfinite(a->amplitude)) throw ParameterError("--amplitude must be > 0");
-            if (a->eigen.count < 1) throw ParameterError("-k must be >= 1");
-            ro.kernel.kappa = a->kappa;
-            if (a->amplitude > 0) {
-                ro.kernel.amplitude = a->amplitude;
-                ro.amplitudeFromData = false;
-            }
+            const RegressionOptions options = regressionOptions(*a);  // nothing runs on a bad flag
             const PointData points = readPointData(a->data);
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
-            const BandJob& job = run.job;
-            const Band& band = job.result.band;
             // === Eigenpairs, then the posterior
             const auto tSolve = Clock::now();
-            nlohmann::json memoryStage;
-            const EigenResult e = runSpectrum(job, a->eigen, run.progress, &memoryStage);
+            nlohmann::json spectrumStage;
+            const EigenResult e = runSpectrum(run.job, a->eigen, run.progress, &spectrumStage);
             const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
-            // The regression's own vectors beside the eigenpairs: estimated and refused before they allocate,
-            // measured over them (docs/memory.md#regression)
-            std::vector<std::pair<std::string, double>> regressionParts =
-                regressionBytes(band.size(), points, int(e.values.size()), ro);
-            double dataBytes = 0;  // the features and the solve go with the data points and k, not the band
-            for (const auto& p : regressionParts)
-                if (p.first != "posterior_on_band") dataBytes += p.second;
-            const double h = job.options.voxelSize;
-            const MemoryEstimate regressionMemory = estimateStageWithin(
-                job.maxMemory, "regression", "libraries, input, band, eigenpairs", std::move(regressionParts),
-                [&](double need, double available) {
-                    if (dataBytes >= 0.9 * available)
-                        return "use fewer data points (--data holds " + std::to_string(points.value.size()) +
-                               ") or fewer eigenpairs (-k " + std::to_string(e.values.size()) + ")";
-                    return "use a voxel size (--voxel-size) of " + numberText(h * std::cbrt(need / available) * 1.1) +
-                           " or larger";
-                });
-            const bool regressionOnly = resetPeakResident();
-            const auto tRegress = Clock::now();
-            run.progress.update("regression", 0);
-            const RegressionResult r = gpRegression(band, e, points, ro, run.progress.interruptOnly());
-            run.progress.update("regression", 1);
-            const double regressionPeak = peakResidentBytes();
-            const double secondsRegress = std::chrono::duration<double>(Clock::now() - tRegress).count();
-            openvdb::MetaMap meta = bandMetadata(job, a->flags);
-            meta.insertMeta("regression_nu", openvdb::DoubleMetadata(ro.kernel.nu));
-            meta.insertMeta("regression_kappa", openvdb::DoubleMetadata(r.kappa));
-            meta.insertMeta("regression_amplitude", openvdb::DoubleMetadata(r.amplitude));
-            meta.insertMeta("regression_prior_mean", openvdb::DoubleMetadata(r.priorMean));
-            meta.insertMeta("regression_data", openvdb::StringMetadata(a->data));
-            meta.insertMeta("regression_points", openvdb::Int64Metadata(openvdb::Int64(points.value.size())));
-            meta.insertMeta("regression_eigenpairs", openvdb::Int32Metadata(int(e.values.size())));
-            writeBandVdb(band, run.out->tempPath(), meta,
-                         {{"regression_mean", &r.mean, float(r.priorMean)}, {"regression_variance", &r.variance}}, {}, a->flags.vdb);
-            run.out->commit();
-            const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (run.report) {
-                nlohmann::json report = bandReport(job, a->flags);
-                report["spectrum"] = spectrumReport(e);
-                report["memory"]["stages"] = {{"spectrum", memoryStage},
-                                              {"regression", memoryStageReport(regressionMemory, regressionPeak, regressionOnly)}};
-                const std::vector<double> meanAt(r.meanAtData.data(), r.meanAtData.data() + r.meanAtData.size());
-                const std::vector<double> varAt(r.varianceAtData.data(), r.varianceAtData.data() + r.varianceAtData.size());
-                report["regression"] = {{"data", a->data},
-                                        {"points", points.value.size()},
-                                        {"nu", std::isinf(ro.kernel.nu) ? nlohmann::json("inf") : nlohmann::json(ro.kernel.nu)},
-                                        {"kappa", r.kappa},
-                                        {"amplitude", r.amplitude},
-                                        {"prior_mean", r.priorMean},
-                                        {"solve", r.weightSpace ? "weight space (k x k)" : "function space (m x m)"},
-                                        {"mean_at_data", meanAt},
-                                        {"variance_at_data", varAt}};
-                report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"spectrum", secondsSpectrum},
-                                       {"regression", secondsRegress}, {"total", total}};
-                report["outputs"] = {a->output};
-                commitReport(*run.report, report);
-            }
-            if (!a->flags.model.quiet)
-                std::cerr << "regress: " << band.size() << " voxels, " << points.value.size() << " data points, "
-                          << e.values.size() << " eigenpairs, kappa " << r.kappa << ", " << total << " s\n";
+            finishRegress(run.job, *a, options, points, e, spectrumStage, secondsSpectrum, *run.out, run.report.get(),
+                          run.progress, start);
         };
     });
 }

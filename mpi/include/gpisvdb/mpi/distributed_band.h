@@ -37,6 +37,9 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
 Band gatherBand(const Ranks& ranks, const DistributedBand& band);
 
 /// A per-voxel channel of the ranks' local bands, concatenated on rank 0 (empty elsewhere). Collective.
-std::vector<float> gatherChannel(const Ranks& ranks, const std::vector<float>& local);
+template <class T>
+std::vector<T> gatherChannel(const Ranks& ranks, const std::vector<T>& local) {
+    return gatherToRoot(ranks, local);
+}
 
 }  // namespace gpisvdb::mpi

@@ -1,0 +1,65 @@
+// gpisvdb-mpi regress INPUT --data DATA.csv -o OUT.vdb: the band and its eigenpairs across MPI ranks (SLEPc), the
+// regression on rank 0 from the gathered eigenvectors (docs/mpi.md).
+#include <chrono>
+
+#include "gpisvdb/mpi/slepc_spectrum.h"
+#include "mpi_band_job.h"
+#include "mpi_commands.h"
+#include "regress_job.h"
+
+namespace gpisvdb::cli {
+
+void addMpiRegress(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
+    auto* cmd = app.add_subcommand("regress", "Gaussian-process regression on the GPIS (as gpisvdb regress): eigenpairs across the MPI ranks by SLEPc");
+    auto a = std::make_shared<RegressArgs>();
+    addRegressFlags(*cmd, *a);
+    cmd->footer("The eigenpairs are SLEPc's across the ranks (see spectrum); rank 0 gathers them with the band and\n"
+                "computes the posterior (its memory holds the band and the k eigenvectors in double).\n"
+                "Example:\n  mpirun -n 4 gpisvdb-mpi regress bunny.obj --data temperature.csv -o regression.vdb --threads 1");
+    cmd->callback([&action, &ranks, a] {
+        action = [&ranks, a] {
+            using Clock = std::chrono::steady_clock;
+            const auto start = Clock::now();
+            const auto threads = limitThreads(a->flags.model.threads);
+            RegressionOptions options;
+            PointData points;
+            mpi::together(ranks, [&] {
+                options = regressionOptions(*a);
+                if (ranks.rank == 0) points = readPointData(a->data);
+            });
+            MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
+            const auto tSolve = Clock::now();
+            const mpi::DistributedSpectrum s = mpi::spectrumSlepc(ranks, run.band, a->eigen, run.progress);
+            // === The eigenpairs as gpisvdb's spectrum returns them, on rank 0
+            EigenResult e;
+            e.values = s.values;
+            e.residuals = s.residuals;
+            e.orthonormalityError = s.orthonormalityError;
+            e.method = s.method;
+            e.iterations = s.iterations;
+            for (std::size_t i = 0; i < s.local.size(); ++i) {
+                const std::vector<double> all = mpi::gatherChannel(ranks, s.local[i]);
+                if (ranks.rank != 0) continue;
+                if (i == 0) e.vectors.resize(Eigen::Index(all.size()), Eigen::Index(s.local.size()));
+                e.vectors.col(Eigen::Index(i)) = Eigen::Map<const Eigen::VectorXd>(all.data(), Eigen::Index(all.size()));
+            }
+            const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
+            const std::size_t ghosts = mpi::sum(ranks, s.ghosts);
+            const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
+            const std::vector<double> values(s.values.data(), s.values.data() + s.values.size()),
+                residuals(s.residuals.data(), s.residuals.data() + s.residuals.size());
+            const nlohmann::json spectrumSection = {
+                {"method", s.method == EigenMethod::Lobpcg ? "SLEPc LOBPCG preconditioned by the multigrid (hypre BoomerAMG)"
+                                                           : "SLEPc Krylov-Schur on L^-1 M, MUMPS Cholesky of L"},
+                {"count", values.size()}, {"eigenvalues", values}, {"residuals", residuals},
+                {"orthonormality_error", s.orthonormalityError}, {"iterations", s.iterations}};
+            mpi::together(ranks, [&] {
+                if (ranks.rank == 0)
+                    finishRegress(run.job, *a, options, points, e, nullptr, secondsSpectrum, *run.out, run.report.get(),
+                                  run.progress, start, {{"mpi", mpiSection}, {"spectrum", spectrumSection}});
+            });
+        };
+    });
+}
+
+}  // namespace gpisvdb::cli

@@ -1,0 +1,36 @@
+#pragma once
+// What gpisvdb regress and gpisvdb-mpi regress share: the flags, their checks, and the regression, outputs and
+// report once the band and its eigenpairs are there (docs/spectrum.md; across ranks the eigenpairs are SLEPc's,
+// gathered on rank 0 with the band, docs/mpi.md).
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "band_job.h"
+#include "gpisvdb/input/point_data.h"
+#include "gpisvdb/tasks/matern.h"
+
+namespace gpisvdb::cli {
+
+struct RegressArgs {
+    RegressArgs() { eigen.count = 200; }
+    std::string input, output, data, nu = "1.5";
+    double kappa = 0, amplitude = 0;
+    BandFlags flags;
+    EigenOptions eigen;
+};
+
+/// INPUT, --data, -o, --nu, --kappa, --amplitude, the eigen solver's flags and the band flags.
+void addRegressFlags(CLI::App& cmd, RegressArgs& args);
+
+/// The regression's options from the flags; ParameterError for a bad one (nothing has run yet).
+RegressionOptions regressionOptions(const RegressArgs& args);
+
+/// The posterior on the job's band from its eigenpairs `e` (computed in `secondsSpectrum`, their memory stage in
+/// `spectrumStage`), the .vdb and the report (with `extra` merged into it).
+void finishRegress(const BandJob& job, const RegressArgs& args, const RegressionOptions& options, const PointData& points,
+                   const EigenResult& e, const nlohmann::json& spectrumStage, double secondsSpectrum, AtomicOutput& out,
+                   AtomicOutput* report, const Progress& progress, std::chrono::steady_clock::time_point start,
+                   const nlohmann::json& extra = {});
+
+}  // namespace gpisvdb::cli
