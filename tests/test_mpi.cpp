@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
 
+#include <chrono>
 #include <fstream>
 #include <sstream>
 #include <map>
@@ -220,5 +221,20 @@ TEST_CASE("mpi: an error on one rank or all ends every rank with one message, ex
         for (std::size_t at = e.find("gpisvdb-mpi:"); at != std::string::npos; at = e.find("gpisvdb-mpi:", at + 1)) ++lines;
         CHECK(lines == 1);
     }
+    CHECK_FALSE(leftovers(out));
+}
+
+TEST_CASE("mpi: Ctrl-C (SIGINT to mpirun) stops every rank within seconds and leaves no output", "[mpi]") {
+    const std::string out = temp("mpi_interrupted.vdb");
+    const std::string root = geteuid() == 0 ? " --allow-run-as-root" : "";
+    const auto start = std::chrono::steady_clock::now();
+    const Run r = runShell("timeout --preserve-status -s INT 3 " + std::string(GPISVDB_MPIEXEC) + root +
+                           " --oversubscribe -n 2 " + GPISVDB_MPI_EXE + " green " + gpisvdb::test::dataPath("bunny.obj") +
+                           " --sigma 0.25 --source 0.5,6,1 --threads 1 -o " + out);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    INFO(r.err);
+    CHECK(r.code != 0);
+    CHECK(r.err.find("interrupted") != std::string::npos);
+    CHECK(seconds < 10);
     CHECK_FALSE(leftovers(out));
 }
