@@ -24,12 +24,7 @@ void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
         ->expected(3);
     cmd->add_option("-o,--output", a->output, "output .vdb (band grids and 'green'; written by rank 0)")->required();
     addBandFlags(*cmd, a->flags);
-    cmd->add_option("--tolerance", a->solver.tolerance, "CG relative residual to reach (>= 1e-12; PETSc solves in double)")->capture_default_str();
-    cmd->add_option("--max-iterations", a->solver.maxIterations, "CG iteration cap (>= 1)")->capture_default_str();
-    cmd->add_option("--preconditioner", a->solver.preconditioner,
-                    "auto (default: multigrid from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG) or jacobi")
-        ->transform(CLI::CheckedTransformer(std::map<std::string, Preconditioner>{
-            {"auto", Preconditioner::Automatic}, {"multigrid", Preconditioner::Multigrid}, {"jacobi", Preconditioner::Jacobi}}));
+    addSolverFlags(*cmd, a->solver, SolverFlags::Distributed);
     cmd->footer("Solves L f = M delta_y with PETSc's CG; the solver's settings can be overridden through PETSC_OPTIONS\n"
                 "(prefix green_, e.g. PETSC_OPTIONS='-green_pc_hypre_boomeramg_strong_threshold 0.6').\n"
                 "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --threads 1");

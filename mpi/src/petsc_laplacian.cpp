@@ -42,16 +42,18 @@ std::vector<std::int64_t> globalStencilNeighbours(const Ranks& ranks, const Dist
     const std::size_t P = std::size_t(ranks.size), n = band.size();
     std::vector<std::int64_t> out(12 * n, -1);
     std::vector<std::vector<Key>> ask(P);
+    const auto neighbour = [&](std::size_t i, int k, int s) {  // x_i + e_k (s = 0) or x_i − e_k (s = 1)
+        const auto& e = band.stencil[i].offset[std::size_t(k)];
+        const int sign = s == 0 ? 1 : -1;
+        return band.coord[i] + openvdb::Coord(sign * e[0], sign * e[1], sign * e[2]);
+    };
     // === Neighbours held here: through the index tree; the others: asked of their rank (each coordinate once)
     {
         auto acc = band.index->getConstAccessor();
         for (std::size_t i = 0; i < n; ++i) {
-            const VoxelStencil& st = band.stencil[i];
-            for (int k = 0; k < st.count; ++k)
+            for (int k = 0; k < band.stencil[i].count; ++k)
                 for (int s = 0; s < 2; ++s) {
-                    const auto& e = st.offset[std::size_t(k)];
-                    const int sign = s == 0 ? 1 : -1;
-                    const openvdb::Coord c = band.coord[i] + openvdb::Coord(sign * e[0], sign * e[1], sign * e[2]);
+                    const openvdb::Coord c = neighbour(i, k, s);
                     const int owner = d.partition.owner(c);
                     if (owner == ranks.rank) {
                         const int j = acc.getValue(c);
@@ -85,12 +87,9 @@ std::vector<std::int64_t> globalStencilNeighbours(const Ranks& ranks, const Dist
     std::vector<std::size_t> base(P, 0);
     for (std::size_t r = 1; r < P; ++r) base[r] = base[r - 1] + std::size_t(got[r - 1]);
     for (std::size_t i = 0; i < n; ++i) {
-        const VoxelStencil& st = band.stencil[i];
-        for (int k = 0; k < st.count; ++k)
+        for (int k = 0; k < band.stencil[i].count; ++k)
             for (int s = 0; s < 2; ++s) {
-                const auto& e = st.offset[std::size_t(k)];
-                const int sign = s == 0 ? 1 : -1;
-                const openvdb::Coord c = band.coord[i] + openvdb::Coord(sign * e[0], sign * e[1], sign * e[2]);
+                const openvdb::Coord c = neighbour(i, k, s);
                 const std::size_t owner = std::size_t(d.partition.owner(c));
                 if (int(owner) == ranks.rank) continue;
                 const auto& list = ask[owner];

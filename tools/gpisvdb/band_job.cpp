@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <map>
 
 #include "gpisvdb/core/errors.h"
 
@@ -97,6 +98,24 @@ BandCommand startBandCommand(const std::string& input, const std::string& output
     c.progress = makeProgress(flags.model.quiet);
     c.job = runBand(data, flags, c.progress);
     return c;
+}
+
+void addSolverFlags(CLI::App& cmd, PcgOptions& o, SolverFlags which) {
+    const bool distributed = which == SolverFlags::Distributed;
+    cmd.add_option("--tolerance", o.tolerance,
+                   distributed ? "CG relative residual to reach (>= 1e-12; PETSc solves in double)"
+                               : "PCG relative residual to reach (>= 1e-12; below 1e-6 the PCG refines in double)")
+        ->capture_default_str();
+    cmd.add_option("--max-iterations", o.maxIterations, "PCG iteration cap (>= 1)")->capture_default_str();
+    if (which == SolverFlags::ToleranceOnly) return;
+    std::map<std::string, Preconditioner> names = {{"auto", Preconditioner::Automatic},
+                                                   {"multigrid", Preconditioner::Multigrid},
+                                                   {"jacobi", Preconditioner::Jacobi}};
+    if (!distributed) names.emplace("ic", Preconditioner::IncompleteCholesky);
+    cmd.add_option("--preconditioner", o.preconditioner,
+                   std::string("auto (default: multigrid from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)") +
+                       (distributed ? " or jacobi" : ", jacobi or ic (incomplete Cholesky)"))
+        ->transform(CLI::CheckedTransformer(names));
 }
 
 void checkSolverFlags(const PcgOptions& options) {

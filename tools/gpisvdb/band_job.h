@@ -59,6 +59,15 @@ struct BandCommand {
 };
 BandCommand startBandCommand(const std::string& input, const std::string& output, const BandFlags& flags);
 
+/// Which flags addSolverFlags registers.
+enum class SolverFlags {
+    ToleranceOnly,  ///< --tolerance and --max-iterations (the operator picks its own preconditioner)
+    Preconditioner, ///< also --preconditioner auto|multigrid|jacobi|ic
+    Distributed,    ///< also --preconditioner auto|multigrid|jacobi (gpisvdb-mpi: PETSc double, no incomplete Cholesky)
+};
+/// --tolerance, --max-iterations and (per `which`) --preconditioner, into `options`.
+void addSolverFlags(CLI::App& cmd, PcgOptions& options, SolverFlags which);
+
 /// Throws a ParameterError for --tolerance outside [kMinPcgTolerance, ∞) or --max-iterations < 1.
 void checkSolverFlags(const PcgOptions& options);
 

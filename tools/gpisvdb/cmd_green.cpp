@@ -26,14 +26,7 @@ void addGreen(CLI::App& app, Action& action) {
         ->expected(3);
     cmd->add_option("-o,--output", a->output, "output .vdb (band grids and 'green')")->required();
     addBandFlags(*cmd, a->flags);
-    cmd->add_option("--tolerance", a->solver.tolerance, "PCG relative residual to reach (>= 1e-12; below 1e-6 the PCG refines in double)")->capture_default_str();
-    cmd->add_option("--max-iterations", a->solver.maxIterations, "PCG iteration cap (>= 1)")->capture_default_str();
-    cmd->add_option("--preconditioner", a->solver.preconditioner,
-                    "auto (default: multigrid from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG), jacobi "
-                    "or ic (incomplete Cholesky)")
-        ->transform(CLI::CheckedTransformer(std::map<std::string, Preconditioner>{
-            {"auto", Preconditioner::Automatic}, {"multigrid", Preconditioner::Multigrid},
-            {"jacobi", Preconditioner::Jacobi}, {"ic", Preconditioner::IncompleteCholesky}}));
+    addSolverFlags(*cmd, a->solver, SolverFlags::Preconditioner);
     cmd->footer("Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
                 "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json");
     cmd->callback([&action, a] {

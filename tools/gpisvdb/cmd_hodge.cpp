@@ -53,8 +53,7 @@ void addHodge(CLI::App& app, Action& action) {
         ->check(CLI::IsMember({"neumann", "dirichlet"}))
         ->capture_default_str();
     addBandFlags(*cmd, a->flags);
-    cmd->add_option("--tolerance", a->solver.tolerance, "PCG relative residual to reach (>= 1e-12; below 1e-6 the PCG refines in double)")->capture_default_str();
-    cmd->add_option("--max-iterations", a->solver.maxIterations, "PCG iteration cap (>= 1)")->capture_default_str();
+    addSolverFlags(*cmd, a->solver, SolverFlags::ToleranceOnly);
     cmd->footer("V = grad_phi psi + V_free with D_phi V_free = 0: (G^T BlockDiag(h^3 T) G) psi = G^T (M x I) V by the PCG.\n"
                 "The two parts are orthogonal in the inner product S = mu^2 T^-1 (paper App. E).\n"
                 "Examples:\n  gpisvdb hodge bunny.obj --preset mixed -o hodge.vdb --sigma 1\n"
