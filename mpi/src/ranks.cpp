@@ -1,5 +1,6 @@
 #include "gpisvdb/mpi/ranks.h"
 
+#include <algorithm>
 #include <chrono>
 #include <exception>
 #include <map>
@@ -55,16 +56,42 @@ std::string messageOf(const std::exception_ptr& e) {
     }
 }
 
-[[noreturn]] void rethrowAs(int kind, const std::string& message, int rank) {
+/// The Options fields an Error names (Error::parameters), one per line: the front end maps them to its flags.
+std::string parametersOf(const std::exception_ptr& e) {
+    try {
+        std::rethrow_exception(e);
+    } catch (const Error& x) {
+        std::string joined;
+        for (const std::string& p : x.parameters()) joined += (joined.empty() ? "" : "\n") + p;
+        return joined;
+    } catch (...) {
+        return {};
+    }
+}
+
+void broadcast(std::string& text, int root, MPI_Comm comm) {
+    int length = int(text.size());
+    MPI_Bcast(&length, 1, MPI_INT, root, comm);
+    text.resize(std::size_t(length));
+    MPI_Bcast(text.data(), length, MPI_CHAR, root, comm);
+}
+
+[[noreturn]] void rethrowAs(int kind, const std::string& message, const std::string& parameters, int rank) {
     errorsAgreed() = true;
     const std::string m = kind == kInternal ? "internal error on rank " + std::to_string(rank) + ": " + message : message;
+    std::vector<std::string> fields;
+    for (std::size_t at = 0; at < parameters.size();) {
+        const std::size_t end = std::min(parameters.find('\n', at), parameters.size());
+        fields.push_back(parameters.substr(at, end - at));
+        at = end + 1;
+    }
     switch (kind) {
         case kCancelled: throw Cancelled();
-        case kMemory: throw MemoryLimitError(m);
-        case kParameter: throw ParameterError(m);
-        case kInput: throw InputError(m);
-        case kOutput: throw OutputError(m);
-        default: throw Error(m);
+        case kMemory: throw MemoryLimitError(m, fields);
+        case kParameter: throw ParameterError(m, fields);
+        case kInput: throw InputError(m, fields);
+        case kOutput: throw OutputError(m, fields);
+        default: throw Error(m, fields);
     }
 }
 
@@ -78,21 +105,20 @@ void together(const Ranks& ranks, const std::function<void()>& work) {
         failure = std::current_exception();
     }
     // === Agree: the lowest failing rank, if any
-    const int mine = failure ? ranks.rank : ranks.size;
+    const int failing = failure ? ranks.rank : ranks.size;
     int first = ranks.size;
-    MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, ranks.comm);
+    MPI_Allreduce(&failing, &first, 1, MPI_INT, MPI_MIN, ranks.comm);
     if (first == ranks.size) return;
-    // === Its error, sent to every rank; each throws it (the failing rank its own exception, parameters included)
-    int kind = failure && first == ranks.rank ? kindOf(failure) : 0;
-    std::string message = failure && first == ranks.rank ? messageOf(failure) : std::string();
-    int length = int(message.size());
+    // === Its error, sent to every rank; each throws it (the failing rank its own exception)
+    const bool mine = failure && first == ranks.rank;
+    int kind = mine ? kindOf(failure) : 0;
+    std::string message = mine ? messageOf(failure) : std::string(), parameters = mine ? parametersOf(failure) : std::string();
     MPI_Bcast(&kind, 1, MPI_INT, first, ranks.comm);
-    MPI_Bcast(&length, 1, MPI_INT, first, ranks.comm);
-    message.resize(std::size_t(length));
-    MPI_Bcast(message.data(), length, MPI_CHAR, first, ranks.comm);
+    broadcast(message, first, ranks.comm);
+    broadcast(parameters, first, ranks.comm);
     errorsAgreed() = true;
-    if (first == ranks.rank && kind != kInternal) std::rethrow_exception(failure);
-    rethrowAs(kind, message, first);
+    if (mine && kind != kInternal) std::rethrow_exception(failure);
+    rethrowAs(kind, message, parameters, first);
 }
 
 namespace detail {

@@ -23,7 +23,7 @@ struct Ranks {
 
 /// Runs `work` on this rank, then agrees with every other rank on whether all succeeded (one allreduce). If any
 /// threw, every rank throws the lowest failing rank's exception, rebuilt with its type (Cancelled, InputError,
-/// ParameterError, MemoryLimitError, OutputError, Error) and message; errorsAgreed() is then true. Every rank
+/// ParameterError, MemoryLimitError, OutputError, Error), message and Error::parameters; errorsAgreed() is then true. Every rank
 /// must call it the same number of times, with no collective call inside `work`.
 void together(const Ranks& ranks, const std::function<void()>& work);
 
