@@ -24,8 +24,9 @@ void addMpiBand(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             const auto start = std::chrono::steady_clock::now();
             const auto threads = limitThreads(a->flags.model.threads);
             MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
-            const BandJob& job = run.job;
             const nlohmann::json mpiSection = mpiReport(ranks, run.band);
+            gatherWholeBand(ranks, run, a->flags);
+            const BandJob& job = run.job;
             mpi::together(ranks, [&] {
                 if (ranks.rank != 0) return;
                 writeBandVdb(job.result.band, run.out->tempPath(), bandMetadata(job, a->flags), {}, {}, a->flags.vdb);

@@ -23,6 +23,7 @@ void addMpiGeodesic(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             mpi::together(ranks, [&] { request = geodesicRequest(*a, ranks.rank == 0); });
             MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
             const nlohmann::json mpiSection = mpiReport(ranks, run.band);
+            gatherWholeBand(ranks, run, a->flags);  // rank 0 marches on it
             mpi::together(ranks, [&] {
                 if (ranks.rank == 0)
                     finishGeodesic(run.job, *a, request, *run.out, run.report.get(), run.progress, start, {{"mpi", mpiSection}});

@@ -51,6 +51,7 @@ void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             const std::vector<float> values = mpi::gatherChannel(ranks, g.local);
             const std::size_t ghosts = mpi::sum(ranks, g.ghosts);
             const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
+            gatherWholeBand(ranks, run, a->flags);  // after the solve: rank 0 never holds both
             mpi::together(ranks, [&] {
                 if (ranks.rank != 0) return;
                 const Band& band = job.result.band;

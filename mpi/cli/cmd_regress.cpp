@@ -46,6 +46,7 @@ void addMpiRegress(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
             const std::size_t ghosts = mpi::sum(ranks, s.ghosts);
             const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
+            gatherWholeBand(ranks, run, a->flags);  // after the eigen solve: rank 0 computes the posterior on it
             const std::vector<double> values(s.values.data(), s.values.data() + s.values.size()),
                 residuals(s.residuals.data(), s.residuals.data() + s.residuals.size());
             const nlohmann::json spectrumSection = {

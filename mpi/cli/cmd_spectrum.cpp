@@ -42,6 +42,7 @@ void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             }
             const std::size_t ghosts = mpi::sum(ranks, s.ghosts);
             const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
+            gatherWholeBand(ranks, run, a->flags);  // after the solve: rank 0 never holds both
             mpi::together(ranks, [&] {
                 if (ranks.rank != 0) return;
                 const Band& band = job.result.band;

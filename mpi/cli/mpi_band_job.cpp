@@ -39,13 +39,17 @@ MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& i
         const std::exception_ptr e = std::current_exception();
         mpi::together(ranks, [&] { std::rethrow_exception(e); });
     }
+    return c;
+}
+
+void gatherWholeBand(const mpi::Ranks& ranks, MpiBandCommand& c, const BandFlags& flags, bool keepLocal) {
     c.job.result.band = mpi::gatherBand(ranks, c.band);
+    if (!keepLocal) c.band.local = Band();
     if (ranks.rank == 0) {
         c.job.warnings = bandWarnings(c.job, flags);
         if (!flags.model.quiet)
             for (const std::string& w : c.job.warnings) std::cerr << "warning: " << w << "\n";
     }
-    return c;
 }
 
 nlohmann::json mpiReport(const mpi::Ranks& ranks, const mpi::DistributedBand& band, nlohmann::json extra) {

@@ -14,14 +14,19 @@ struct MpiBandCommand {
     std::unique_ptr<AtomicOutput> out;     ///< rank 0 only
     std::unique_ptr<AtomicOutput> report;  ///< rank 0 with --report only
     Progress progress;                     ///< a bar on rank 0 (unless --quiet); Ctrl-C polled on every rank
-    BandJob job;                           ///< on rank 0 its band is the whole band (gathered); elsewhere empty
+    BandJob job;                           ///< its band: empty until gatherWholeBand, then the whole band on rank 0
     mpi::DistributedBand band;             ///< this rank's part
 };
 
-/// Reads the input, opens the outputs, builds the band across `ranks` and gathers it on rank 0. Collective; errors
-/// are agreed (mpi::together).
+/// Reads the input, opens the outputs and builds the band across `ranks`. Collective; errors are agreed
+/// (mpi::together).
 MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& input, const std::string& output,
                                    const BandFlags& flags);
+
+/// The whole band on rank 0 (c.job.result.band), for the .vdb or a task that runs there, and the band's warnings
+/// printed by rank 0. Called as late as the command allows (after its distributed solve), so that rank 0 does not
+/// hold the whole band beside the solver. Without `keepLocal` every rank's part is freed. Collective.
+void gatherWholeBand(const mpi::Ranks& ranks, MpiBandCommand& command, const BandFlags& flags, bool keepLocal = false);
 
 /// The report's `mpi` section: ranks, voxels per rank (while searching and after balancing), voxels evaluated per
 /// rank, bytes sent in exchanges (summed over ranks) and the longest time a rank spent in them, each rank's peak
