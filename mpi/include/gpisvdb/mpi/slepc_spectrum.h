@@ -13,8 +13,9 @@
 
 namespace gpisvdb::mpi {
 
-/// Above this many voxels of the whole band Automatic takes LOBPCG: MUMPS's factor grows as N^(4/3) on a band (the
-/// one-process CHOLMOD measurement, docs/spectrum.md) and stops fitting near 1e6 voxels per 8 GB.
+/// Above this many voxels of the whole band Automatic takes LOBPCG: a Cholesky factor's fill grows like N^1.4 on a
+/// band (CHOLMOD's, measured: docs/spectrum.md#lobpcg) and stopped fitting near 1e6 voxels per 8 GB. MUMPS's is
+/// assumed alike; it is not estimated before the factorisation.
 constexpr std::size_t kFactorMaxVoxels = 1000000;
 
 struct DistributedSpectrum {
