@@ -57,13 +57,7 @@ void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
                 const Band& band = job.result.band;
                 openvdb::MetaMap meta = bandMetadata(job, a->flags);
                 const openvdb::Coord y = band.coord[g.sourceIndex];
-                meta.insertMeta("green_source", openvdb::Vec3DMetadata(openvdb::Vec3d(a->source[0], a->source[1], a->source[2])));
-                meta.insertMeta("green_source_voxel", openvdb::Vec3IMetadata(openvdb::Vec3i(y.x(), y.y(), y.z())));
-                meta.insertMeta("solver_iterations", openvdb::Int32Metadata(g.iterations));
-                meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(g.relativeResidual));
-                meta.insertMeta("solver_float_residual", openvdb::DoubleMetadata(g.relativeResidual));
-                meta.insertMeta("solver_refinements", openvdb::Int32Metadata(0));
-                meta.insertMeta("solver_preconditioner", openvdb::StringMetadata(preconditionerName(g.preconditioner)));
+                addGreenMetadata(meta, Vec3d(a->source[0], a->source[1], a->source[2]), y, solve);
                 writeBandVdb(band, run.out->tempPath(), meta, {{"green", &values}}, {}, a->flags.vdb);
                 run.out->commit();
                 const double total = std::chrono::duration<double>(Clock::now() - start).count();

@@ -47,13 +47,7 @@ void addMpiRegress(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             const std::size_t ghosts = mpi::sum(ranks, s.ghosts);
             const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
             gatherWholeBand(ranks, run, a->flags);  // after the eigen solve: rank 0 computes the posterior on it
-            const std::vector<double> values(s.values.data(), s.values.data() + s.values.size()),
-                residuals(s.residuals.data(), s.residuals.data() + s.residuals.size());
-            const nlohmann::json spectrumSection = {
-                {"method", s.method == EigenMethod::Lobpcg ? "SLEPc LOBPCG preconditioned by the multigrid (hypre BoomerAMG)"
-                                                           : "SLEPc Krylov-Schur on L^-1 M, MUMPS Cholesky of L"},
-                {"count", values.size()}, {"eigenvalues", values}, {"residuals", residuals},
-                {"orthonormality_error", s.orthonormalityError}, {"iterations", s.iterations}};
+            const nlohmann::json spectrumSection = slepcSpectrumReport(s);
             mpi::together(ranks, [&] {
                 if (ranks.rank == 0)
                     finishRegress(run.job, *a, options, points, e, nullptr, secondsSpectrum, *run.out, run.report.get(),

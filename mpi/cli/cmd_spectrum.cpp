@@ -57,14 +57,7 @@ void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
                 const double total = std::chrono::duration<double>(Clock::now() - start).count();
                 if (run.report) {
                     nlohmann::json report = bandReport(job, a->flags);
-                    const std::vector<double> values(s.values.data(), s.values.data() + s.values.size()),
-                        residuals(s.residuals.data(), s.residuals.data() + s.residuals.size());
-                    report["spectrum"] = {
-                        {"method", s.method == EigenMethod::Lobpcg
-                                       ? "SLEPc LOBPCG preconditioned by the multigrid (hypre BoomerAMG)"
-                                       : "SLEPc Krylov-Schur on L^-1 M, MUMPS Cholesky of L"},
-                        {"count", values.size()}, {"eigenvalues", values}, {"residuals", residuals},
-                        {"orthonormality_error", s.orthonormalityError}, {"iterations", s.iterations}};
+                    report["spectrum"] = slepcSpectrumReport(s);
                     report["mpi"] = mpiSection;
                     report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand},
                                            {"operators", s.assembleSeconds}, {"solve", s.solveSeconds}, {"total", total}};

@@ -69,4 +69,13 @@ nlohmann::json mpiReport(const mpi::Ranks& ranks, const mpi::DistributedBand& ba
     return r;
 }
 
+nlohmann::json slepcSpectrumReport(const mpi::DistributedSpectrum& s) {
+    const std::vector<double> values(s.values.data(), s.values.data() + s.values.size()),
+        residuals(s.residuals.data(), s.residuals.data() + s.residuals.size());
+    return {{"method", s.method == EigenMethod::Lobpcg ? "SLEPc LOBPCG preconditioned by the multigrid (hypre BoomerAMG)"
+                                                       : "SLEPc Krylov-Schur on L^-1 M, MUMPS Cholesky of L"},
+            {"count", values.size()}, {"eigenvalues", values}, {"residuals", residuals},
+            {"orthonormality_error", s.orthonormalityError}, {"iterations", s.iterations}};
+}
+
 }  // namespace gpisvdb::cli

@@ -7,6 +7,7 @@
 
 #include "band_job.h"
 #include "gpisvdb/mpi/distributed_band.h"
+#include "gpisvdb/mpi/slepc_spectrum.h"
 
 namespace gpisvdb::cli {
 
@@ -32,5 +33,8 @@ void gatherWholeBand(const mpi::Ranks& ranks, MpiBandCommand& command, const Ban
 /// rank, bytes sent in exchanges (summed over ranks) and the longest time a rank spent in them, each rank's peak
 /// resident set so far, and `extra` (e.g. the solver's halo). Collective.
 nlohmann::json mpiReport(const mpi::Ranks& ranks, const mpi::DistributedBand& band, nlohmann::json extra = {});
+
+/// The report's `spectrum` section for SLEPc's eigenpairs: method, eigenvalues, residuals, orthonormality, iterations.
+nlohmann::json slepcSpectrumReport(const mpi::DistributedSpectrum& spectrum);
 
 }  // namespace gpisvdb::cli

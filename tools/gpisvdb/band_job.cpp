@@ -195,6 +195,16 @@ openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     return meta;
 }
 
+void addGreenMetadata(openvdb::MetaMap& meta, const Vec3d& source, const openvdb::Coord& y, const PcgResult& solve) {
+    meta.insertMeta("green_source", openvdb::Vec3DMetadata(openvdb::Vec3d(source.x(), source.y(), source.z())));
+    meta.insertMeta("green_source_voxel", openvdb::Vec3IMetadata(openvdb::Vec3i(y.x(), y.y(), y.z())));
+    meta.insertMeta("solver_iterations", openvdb::Int32Metadata(solve.iterations));
+    meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(solve.relativeResidual));
+    meta.insertMeta("solver_float_residual", openvdb::DoubleMetadata(solve.floatResidual));
+    meta.insertMeta("solver_refinements", openvdb::Int32Metadata(solve.refinements));
+    meta.insertMeta("solver_preconditioner", openvdb::StringMetadata(preconditionerName(solve.preconditioner)));
+}
+
 nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
     const auto& in = job.model.input;
     const Band& band = job.result.band;

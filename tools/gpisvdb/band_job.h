@@ -83,6 +83,10 @@ nlohmann::json solverReport(const PcgResult& result, const PcgOptions& options);
 /// limit, naming --max-memory and the voxel size that fits (the stage's bytes go as h⁻³ with the band's voxels).
 MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::vector<std::pair<std::string, double>> parts);
 
+/// The Green's function's metadata: its source point and voxel, and the solve's iterations, residuals, refinements
+/// and preconditioner (gpisvdb green and gpisvdb-mpi green write the same keys).
+void addGreenMetadata(openvdb::MetaMap& meta, const Vec3d& source, const openvdb::Coord& sourceVoxel, const PcgResult& solve);
+
 /// File metadata: version, command line, every parameter relative and absolute, input, band size and mass.
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags);
 

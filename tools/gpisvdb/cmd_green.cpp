@@ -64,13 +64,7 @@ void addGreen(CLI::App& app, Action& action) {
             requireConverged(g.solver, a->solver);
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             const openvdb::Coord y = band.coord[g.sourceIndex];
-            meta.insertMeta("green_source", openvdb::Vec3DMetadata(openvdb::Vec3d(a->source[0], a->source[1], a->source[2])));
-            meta.insertMeta("green_source_voxel", openvdb::Vec3IMetadata(openvdb::Vec3i(y.x(), y.y(), y.z())));
-            meta.insertMeta("solver_iterations", openvdb::Int32Metadata(g.solver.iterations));
-            meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(g.solver.relativeResidual));
-            meta.insertMeta("solver_float_residual", openvdb::DoubleMetadata(g.solver.floatResidual));
-            meta.insertMeta("solver_refinements", openvdb::Int32Metadata(g.solver.refinements));
-            meta.insertMeta("solver_preconditioner", openvdb::StringMetadata(preconditionerName(g.solver.preconditioner)));
+            addGreenMetadata(meta, Vec3d(a->source[0], a->source[1], a->source[2]), y, g.solver);
             writeBandVdb(band, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
             run.out->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
