@@ -254,8 +254,9 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
          "the Hodge decomposition needs about"},
         {"spectrum " + bunny + " -k 0 -o " + vdb, "-k"},
         {"spectrum " + bunny + " -k 100000 -o " + vdb + " --voxel-size 0.4 --sigma 2", "between 1 and"},
+        // The assembled L is refused first (the eigen solver's own refusal: test_memory_stages.cpp)
         {"spectrum " + bunny + " -k 200 -o " + vdb + " --voxel-size 0.4 --sigma 2 --max-memory 20M",
-         "allowed (--max-memory), and LOBPCG without a factor about"},
+         "the assembled Laplacian of the eigen solver needs about"},
         {"spectrum " + bunny + " -k 4 --eigen-tolerance 0 -o " + vdb + " --voxel-size 0.4 --sigma 2", "tolerance"},
         {"regress " + bunny + " --data /nonexistent.csv -o " + vdb, "no such file"},
         {"regress " + bunny + " --data " + temp("cols.csv", "x,y,z,v\n1,2,3\n") + " -o " + vdb, "4 or 5 columns"},

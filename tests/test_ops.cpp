@@ -88,6 +88,22 @@ TEST_CASE("ops: the assembled L equals the triplet-list assembly to the last bit
     }
 }
 
+TEST_CASE("ops: the Laplacian's entries counted from the stencils are exactly those the assembly stores", "[ops]") {
+    // The count refuses the spectrum's assembled L before it is made (docs/memory.md): it must not be a bound
+    const Band ball = test::anisotropicBall(6, 0.1, 8.0);
+    for (const Band* b : {&test::sphereBand(), &test::torusGapBand(), &ball}) {
+        const LaplacianSize size = laplacianSize(*b);
+        const SparseMatrixD L = assembleLaplacianDouble(*b);
+        INFO(b->size() << " voxels");
+        CHECK(size.voxels == b->size());
+        CHECK(size.entries == std::size_t(L.nonZeros()));
+        // Every contribution is an off-diagonal entry, some met from both ends of their edge
+        CHECK(size.contributions >= size.entries - size.voxels);
+        CHECK(size.contributions <= 2 * (size.entries - size.voxels));
+        CHECK(assembledLaplacianBytes(size, sizeof(double)) == Approx(12.0 * double(L.nonZeros()) + 4.0 * double(b->size() + 1)));
+    }
+}
+
 TEST_CASE("ops: u^T L u equals the energy of Eq. 24 computed from the stencils", "[ops]") {
     for (auto [name, band] : bands()) {
         INFO(name);

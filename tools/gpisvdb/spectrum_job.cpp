@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/tasks/spectrum.h"
 
 namespace gpisvdb::cli {
@@ -27,17 +28,28 @@ std::string eigenGridName(int i) {
 }
 
 EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress, nlohmann::json* memory) {
+    const Band& band = job.result.band;
+    const double n = double(band.size());
+    // === The assembled L in double and the mass, counted from the stencils and refused before they are made; the
+    //     assembly's own peak (its contributions before each row is merged) is the larger part on small factors
+    const LaplacianSize size = laplacianSize(band);
+    const double matrix = assembledLaplacianBytes(size, sizeof(double));
+    const double assembly = laplacianAssemblyBytes(size, sizeof(double)) - matrix;
+    const double mass = 8.0 * n;  // M's diagonal in double
+    std::vector<std::pair<std::string, double>> before = {{"laplacian_double", matrix}};
+    if (assembly > mass) before.emplace_back("laplacian_assembly", assembly);
+    else before.emplace_back("mass", mass);
+    MemoryEstimate estimate = estimateStage(job, "assembled Laplacian of the eigen solver", before);
+    // === The eigen solver's factor, basis and vectors: refused by the solver after CHOLMOD's symbolic analysis,
+    //     within what is left beside L and M
     EigenOptions o = options;
-    o.maxBytes = std::max(1.0, job.maxMemory - double(job.result.band.size()) * job.result.band.bytesPerVoxel());
-    MemoryEstimate estimate;
-    estimate.baselineBytes = settledResidentBytes();
+    o.maxBytes = std::max(1.0, job.maxMemory - estimate.baselineBytes - matrix - mass);
     const bool stageOnly = resetPeakResident();
-    EigenResult e = spectrum(job.result.band, o, progress);
+    EigenResult e = spectrum(band, o, progress);
     const double peak = peakResidentBytes();
-    const double n = double(job.result.band.size());
-    // CSR in double: 8 B value + 4 B column index per entry, 4 B per row start; the mass: 8 B per voxel
-    estimate.parts = {{"laplacian_double", 12.0 * e.matrixNonzeros + 4.0 * (n + 1)}, {"mass", 8.0 * n},
-                      {"eigen_solver", e.estimatedBytes}};
+    // The stage's peak: the assembly's, or L and M beside the solver's
+    if (assembly > mass + e.estimatedBytes) estimate.parts = {{"laplacian_double", matrix}, {"laplacian_assembly", assembly}};
+    else estimate.parts = {{"laplacian_double", matrix}, {"mass", mass}, {"eigen_solver", e.estimatedBytes}};
     if (memory) *memory = memoryStageReport(estimate, peak, stageOnly);
     return e;
 }

@@ -14,11 +14,12 @@ void addEigenFlags(CLI::App& cmd, EigenOptions& options);
 /// "eigen_000", "eigen_001", … (more digits past 999): the grid of eigenvector i.
 std::string eigenGridName(int i);
 
-/// The k lowest eigenpairs of the job's band, refused before the numeric factorisation when the factor, the Lanczos
-/// basis and the vectors would not fit in --max-memory beside the band.
-/// With `memory`: the stage's estimate (the settled resident set at its start; the assembled L in double, the mass,
-/// and the eigen solver's factor, basis and vectors as estimated before the factorisation) and the peak measured
-/// over it, as memoryStageReport writes them.
+/// The k lowest eigenpairs of the job's band. Refused beyond --max-memory before L is assembled when L in double,
+/// M and the assembly's peak would not fit beside what the process holds (naming the voxel size that fits), and
+/// by the eigen solver before its numeric factorisation when the factor, the Lanczos basis and the vectors would
+/// not fit beside L and M. With `memory`: the stage's estimate (the settled resident set at its start; the larger
+/// of the assembly's peak and L, M and the solver's factor, basis and vectors as estimated before the
+/// factorisation) and the peak measured over it, as memoryStageReport writes them.
 EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress,
                         nlohmann::json* memory = nullptr);
 

@@ -1,10 +1,12 @@
 #include "gpisvdb/ops/laplacian.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "../band/stencil_neighbours.h"
 #include "gpisvdb/core/errors.h"
@@ -100,6 +102,69 @@ Matrix assembleLaplacianAs(const Band& band) {
 
 SparseMatrixF assembleLaplacian(const Band& band) { return assembleLaplacianAs<SparseMatrixF>(band); }
 SparseMatrixD assembleLaplacianDouble(const Band& band) { return assembleLaplacianAs<SparseMatrixD>(band); }
+
+LaplacianSize laplacianSize(const Band& band) {
+    // An edge i–j (j = x_i ± h e) is emitted by i, and by j too when j's stencil holds ±e; its two entries (i, j)
+    // and (j, i) are stored once however often it is emitted. So each emission counts 2 contributions, and an edge
+    // counts once: at i, unless j emits it too and j < i. (A term repeated in one stencil is emitted twice by it.)
+    struct Count {
+        std::size_t edges = 0, contributions = 0;
+    };
+    using Offset = std::array<std::int8_t, 3>;
+    const auto holds = [](const VoxelStencil& st, const Offset& e, int terms) {
+        for (int k = 0; k < terms; ++k) {
+            const Offset& o = st.offset[std::size_t(k)];
+            if ((o[0] == e[0] && o[1] == e[1] && o[2] == e[2]) || (o[0] == -e[0] && o[1] == -e[1] && o[2] == -e[2]))
+                return true;
+        }
+        return false;
+    };
+    const Count total = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, band.size(), 4096), Count{},
+        [&](const tbb::blocked_range<std::size_t>& r, Count c) {
+            auto acc = band.index->getConstAccessor();
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const VoxelStencil& st = band.stencil[i];
+                for (int k = 0; k < st.count; ++k) {
+                    const Offset& o = st.offset[std::size_t(k)];
+                    const openvdb::Coord e(o[0], o[1], o[2]);
+                    const bool repeated = holds(st, o, k);  // an earlier term of i already emitted these edges
+                    for (const openvdb::Coord& x : {band.coord[i] + e, band.coord[i] - e}) {
+                        const std::int32_t j = acc.getValue(x);
+                        if (j < 0) continue;
+                        c.contributions += 2;
+                        if (repeated) continue;
+                        if (std::size_t(j) < i && holds(band.stencil[std::size_t(j)], o, band.stencil[std::size_t(j)].count))
+                            continue;  // counted at j
+                        ++c.edges;
+                    }
+                }
+            }
+            return c;
+        },
+        [](Count a, const Count& b) {
+            a.edges += b.edges;
+            a.contributions += b.contributions;
+            return a;
+        });
+    return {band.size(), band.size() + 2 * total.edges, total.contributions};
+}
+
+double assembledLaplacianBytes(const LaplacianSize& size, std::size_t scalarBytes) {
+    return double(scalarBytes + sizeof(std::int32_t)) * double(size.entries) + 4.0 * double(size.voxels + 1);
+}
+
+double laplacianAssemblyBytes(const LaplacianSize& size, std::size_t scalarBytes) {
+    const double n = double(size.voxels), s = double(scalarBytes);
+    // A contribution is a (column, value) pair, padded to the value's alignment
+    const double entry = double(scalarBytes == sizeof(float) ? sizeof(std::pair<std::int32_t, float>)
+                                                             : sizeof(std::pair<std::int32_t, double>));
+    const double contributions = entry * double(size.contributions);
+    const double rowStarts = 8.0 * (n + 1);  // std::size_t start, or std::int64_t outer
+    const double emission = 4.0 * detail::kStencilSlots * n + rowStarts + 8.0 * n /* cursor */ + s * n + contributions;
+    const double merge = 2 * rowStarts + s * n + contributions + assembledLaplacianBytes(size, scalarBytes);
+    return std::max(emission, merge);
+}
 
 std::vector<float> massDiagonal(const Band& band) {
     const double h3 = band.voxelSize * band.voxelSize * band.voxelSize;

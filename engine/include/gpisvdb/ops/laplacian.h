@@ -23,6 +23,25 @@ SparseMatrixD assembleLaplacianDouble(const Band& band);
 /// M's diagonal, h³ μ (world units², so uᵀ M v → ∫ u v dμ).
 std::vector<float> massDiagonal(const Band& band);
 
+/// What assembleLaplacian and assembleLaplacianDouble make and hold, counted from the band's stencils without
+/// assembling (one pass of index-tree look-ups, no allocation), so that their memory can be refused beforehand.
+struct LaplacianSize {
+    std::size_t voxels = 0;         ///< rows of L
+    std::size_t entries = 0;        ///< stored entries of L, its diagonal included: exactly L.nonZeros()
+    std::size_t contributions = 0;  ///< off-diagonal contributions held before each row is merged: 2 per stencil
+                                    ///< neighbour inside the band (an edge met from both ends counts twice)
+};
+LaplacianSize laplacianSize(const Band& band);
+
+/// Bytes of the assembled L with `scalarBytes` values (4 float, 8 double): value + 4 B column index per entry,
+/// 4 B per row start.
+double assembledLaplacianBytes(const LaplacianSize& size, std::size_t scalarBytes);
+
+/// Peak bytes the assembly allocates, L included: the larger of its emission phase (12 neighbour indices, a row
+/// start and a cursor per voxel, the diagonal, the contributions: a 4 B column and a value each, padded to 8 or 16
+/// B) and its last phase (row starts and ends, the diagonal, the contributions and L itself).
+double laplacianAssemblyBytes(const LaplacianSize& size, std::size_t scalarBytes);
+
 /// L applied straight from the band's Selling stencils, each edge added to both of its ends. Holds a reference
 /// to the band (which must outlive it), the linear indices of each voxel's 2 × 6 stencil neighbours (resolved
 /// once through the index tree), a double accumulator per voxel (sums in double, one rounding per output, as
