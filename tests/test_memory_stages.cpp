@@ -58,3 +58,35 @@ TEST_CASE("memory: spectrum refuses its assembled Laplacian before assembling it
         checkRefused(args + " -k 200 --max-memory " + bytes(baseline + 5 * L), vdb, {"and LOBPCG without a factor about"});
     }
 }
+
+TEST_CASE("memory: regress refuses its posterior before the eigen stage, at a limit where the eigen stage alone fits", "[memory][cli]") {
+    // Every vertex of the bunny with an exact value (no noise column): the posterior's m × m function-space solve
+    // (16 m² bytes: 54 MB for m = 1839) is far larger than the eigen stage's (-k 5: ≈ 11 MB)
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), vdb = temp("memory_regress_early.vdb");
+    std::ostringstream data;
+    std::ifstream obj(bunny);
+    for (std::string line; std::getline(obj, line);)
+        if (line.rfind("v ", 0) == 0) {
+            std::istringstream v(line.substr(2));
+            double x, y, z;
+            v >> x >> y >> z;
+            data << x << ',' << y << ',' << z << ',' << y << '\n';
+        }
+    const std::string csv = temp("memory_regress_exact.csv", data.str()), json = temp("memory_regress_early.json");
+    const std::string args = "regress " + bunny + " --data " + csv + " -k 5 --sigma 2 --voxel-size 0.4 -o " + vdb;
+    const Run fits = run(args + " --quiet --report " + json);
+    INFO(fits.err);
+    REQUIRE(fits.code == 0);
+    std::filesystem::remove(vdb);
+    const nlohmann::json stages = nlohmann::json::parse(std::ifstream(json))["memory"]["stages"];
+    checkStage(stages["regression"]);  // the function-space solve's estimate, beside the features
+    // A limit above everything the eigen stage needs (estimated and measured), below the posterior beside it
+    const double eigenStage = std::max(double(stages["spectrum"]["estimate_bytes"]), double(stages["spectrum"]["measured_peak_bytes"]));
+    const double posterior = double(stages["regression"]["estimate_bytes"]) - double(stages["regression"]["baseline_bytes"]);
+    const double limit = eigenStage + 0.3 * posterior;
+    INFO(stages.dump());
+    REQUIRE(limit < double(stages["regression"]["estimate_bytes"]));
+    checkRefused(args + " --max-memory " + bytes(limit), vdb,
+                 {"the regression (with its eigenvectors, before the eigen solver runs) needs about",
+                  "use fewer data points (--data holds 1839)"});
+}

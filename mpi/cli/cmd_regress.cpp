@@ -28,6 +28,17 @@ void addMpiRegress(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
                 if (ranks.rank == 0) points = readPointData(a->data);
             });
             MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
+            // === The posterior's memory on rank 0, refused before the eigen solver runs: beside what rank 0 holds now
+            //     it will hold the whole band, gathered, and the k eigenvectors (8 B per voxel each)
+            mpi::together(ranks, [&] {
+                if (ranks.rank != 0) return;
+                const double voxels = double(run.band.globalSize), local = double(run.band.local.size());
+                estimateRegression(run.job, options, points, run.band.globalSize, a->eigen.count,
+                                   {{"gathered_band", (voxels - local) * run.band.local.bytesPerVoxel()},
+                                    {"eigenvectors", 8.0 * voxels * double(a->eigen.count)}},
+                                   "regression on rank 0 (with the whole band and the eigenvectors, before the eigen solver runs)",
+                                   "libraries, input, this rank's band");
+            });
             const auto tSolve = Clock::now();
             const mpi::DistributedSpectrum s = mpi::spectrumSlepc(ranks, run.band, a->eigen, run.progress);
             // === The eigenpairs as gpisvdb's spectrum returns them, on rank 0

@@ -23,6 +23,12 @@ void addRegress(CLI::App& app, Action& action) {
             const RegressionOptions options = regressionOptions(*a);  // nothing runs on a bad flag
             const PointData points = readPointData(a->data);
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
+            // === The posterior's memory, refused before the eigen solver runs: m, k and the band are known now, and
+            //     beside them the posterior holds the k eigenvectors (8 B per voxel each)
+            const std::size_t voxels = run.job.result.band.size();
+            estimateRegression(run.job, options, points, voxels, a->eigen.count,
+                               {{"eigenvectors", 8.0 * double(voxels) * double(a->eigen.count)}},
+                               "regression (with its eigenvectors, before the eigen solver runs)", "libraries, input, band");
             // === Eigenpairs, then the posterior
             const auto tSolve = Clock::now();
             nlohmann::json spectrumStage;

@@ -49,29 +49,37 @@ RegressionOptions regressionOptions(const RegressArgs& a) {
     return ro;
 }
 
+MemoryEstimate estimateRegression(const BandJob& job, const RegressionOptions& options, const PointData& points,
+                                  std::size_t voxels, int k, std::vector<std::pair<std::string, double>> ahead,
+                                  const std::string& stage, const std::string& held) {
+    std::vector<std::pair<std::string, double>> parts = std::move(ahead);
+    double dataBytes = 0;  // the features and the solve go with the data points and k, not the band
+    for (auto& p : regressionBytes(voxels, points, k, options)) {
+        if (p.first != "posterior_on_band") dataBytes += p.second;
+        parts.push_back(std::move(p));
+    }
+    const double h = job.options.voxelSize;
+    const std::size_t m = points.value.size();
+    return estimateStageWithin(job.maxMemory, stage, held, std::move(parts), [&](double need, double available) {
+        if (dataBytes >= 0.9 * available)
+            return "use fewer data points (--data holds " + std::to_string(m) + ") or fewer eigenpairs (-k " +
+                   std::to_string(k) + ")";
+        // The rest (the eigenvectors, the posterior on the band, the gathered band) goes as h⁻³
+        return "use a voxel size (--voxel-size) of " +
+               numberText(h * std::cbrt((need - dataBytes) / (available - dataBytes)) * 1.1) + " or larger";
+    });
+}
+
 void finishRegress(const BandJob& job, const RegressArgs& args, const RegressionOptions& options, const PointData& points,
                    const EigenResult& e, const nlohmann::json& spectrumStage, double secondsSpectrum, AtomicOutput& out,
                    AtomicOutput* report, const Progress& progress, std::chrono::steady_clock::time_point start,
                    const nlohmann::json& extra) {
     using Clock = std::chrono::steady_clock;
     const Band& band = job.result.band;
-    // The regression's own vectors beside the eigenpairs: estimated and refused before they allocate,
-    // measured over them (docs/memory.md#regression)
-    std::vector<std::pair<std::string, double>> regressionParts =
-        regressionBytes(band.size(), points, int(e.values.size()), options);
-    double dataBytes = 0;  // the features and the solve go with the data points and k, not the band
-    for (const auto& p : regressionParts)
-        if (p.first != "posterior_on_band") dataBytes += p.second;
-    const double h = job.options.voxelSize;
-    const MemoryEstimate regressionMemory = estimateStageWithin(
-        job.maxMemory, "regression", "libraries, input, band, eigenpairs", std::move(regressionParts),
-        [&](double need, double available) {
-            if (dataBytes >= 0.9 * available)
-                return "use fewer data points (--data holds " + std::to_string(points.value.size()) +
-                       ") or fewer eigenpairs (-k " + std::to_string(e.values.size()) + ")";
-            return "use a voxel size (--voxel-size) of " + numberText(h * std::cbrt(need / available) * 1.1) +
-                   " or larger";
-        });
+    // The regression's own vectors beside the eigenpairs, estimated again now that they are held (the command
+    // refused it before the eigen solver ran: estimateRegression), and measured over them (docs/memory.md#regression)
+    const MemoryEstimate regressionMemory = estimateRegression(job, options, points, band.size(), int(e.values.size()), {},
+                                                               "regression", "libraries, input, band, eigenpairs");
     const bool regressionOnly = resetPeakResident();
     const auto tRegress = Clock::now();
     progress.update("regression", 0);
