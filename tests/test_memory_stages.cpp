@@ -37,6 +37,25 @@ void checkRefused(const std::string& args, const std::string& output, const std:
 
 std::string bytes(double b) { return std::to_string(std::llround(b)); }
 
+/// A UV sphere of n × (n − 1) vertices (radius 4, about the bunny's size, centred on it) as an .obj file: an input
+/// with as many points as a test wants.
+std::string uvSphere(int n) {
+    const std::string path = temp("memory_sphere_" + std::to_string(n) + ".obj");
+    std::ofstream f(path);
+    const double pi = 3.14159265358979323846;
+    for (int i = 1; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const double t = pi * i / n, p = 2 * pi * j / n;
+            f << "v " << 4 * std::sin(t) * std::cos(p) << ' ' << 6 + 4 * std::cos(t) << ' ' << 4 * std::sin(t) * std::sin(p) << '\n';
+        }
+    for (int i = 0; i + 2 < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const int a = i * n + j + 1, b = i * n + (j + 1) % n + 1;
+            f << "f " << a << ' ' << a + n << ' ' << b << "\nf " << b << ' ' << a + n << ' ' << b + n << '\n';
+        }
+    return path;
+}
+
 }  // namespace
 
 TEST_CASE("memory: spectrum refuses its assembled Laplacian before assembling it, then the eigen solver's factor beside it, and writes nothing", "[memory][cli]") {
@@ -89,4 +108,26 @@ TEST_CASE("memory: regress refuses its posterior before the eigen stage, at a li
     checkRefused(args + " --max-memory " + bytes(limit), vdb,
                  {"the regression (with its eigenvectors, before the eigen solver runs) needs about",
                   "use fewer data points (--data holds 1839)"});
+}
+
+TEST_CASE("memory: the sample command's estimate (the mesh at the input's points, the sampled grids, VTK's copy) is within 15 % of its stage's peak, on two sizes", "[memory][cli]") {
+    const std::string vdb = bunnyBands()[0];  // 7 grids, 13 float components
+    for (int n : {200, 400})
+        for (const char* format : {".ply", ".vtp"})
+            checkStage(childStage("sample " + vdb + " --at " + uvSphere(n) + " --quiet -o " + temp(std::string("memory_sample") + format),
+                                  "sample"));
+}
+
+TEST_CASE("memory: sample refuses beyond --max-memory before it allocates, naming the grids that fit, and writes nothing", "[memory][cli]") {
+    const std::string out = temp("memory_sample_refused.vtp");
+    const std::string args = "sample " + bunnyBands()[0] + " --at " + uvSphere(400) + " -o " + out;
+    const nlohmann::json fits = childStage(args + " --quiet", "sample");
+    std::filesystem::remove(out);
+    const double baseline = fits["baseline_bytes"], estimate = fits["estimate_bytes"];
+    const double arrays = fits["parts_bytes"]["sampled_arrays"], mesh = fits["parts_bytes"]["mesh"];
+    INFO(fits.dump());
+    // Room for half the sampled arrays (and VTK's copy of them): about 6 of the 13 float components
+    checkRefused(args + " --max-memory " + bytes(estimate - arrays), out, {"sample at most ", "float components at a time (--grid"});
+    // Room for half the points alone: nothing to leave out
+    checkRefused(args + " --max-memory " + bytes(baseline + 0.5 * mesh), out, {"raise it"});
 }

@@ -93,14 +93,22 @@ std::vector<std::pair<std::string, double>> meanSurfaceBytes(const openvdb::Floa
     const double inMesher = signAndIndex + std::max(nodes + leaves * double(sizeof(BoolLeaf)), 12.0 * vertices + 17.0 * quads);
     const double returned = 12.0 * vertices + 16.0 * quads + 24.0 * quads;
     const double extraction = levelSet + std::max(inMesher, returned);
-    // The finished mesh: vertices (Vec3s), triangles, the sampled arrays (float) and VTK's copy of them all (float
-    // points, 64-bit offsets and connectivity: 32 B per triangle, float arrays)
-    const double mesh = 12.0 * vertices + 24.0 * quads, arrays = 4.0 * components * vertices;
-    const double vtk = polyData ? 12.0 * vertices + 64.0 * quads + arrays : 0.0;
-    if (extraction >= mesh + arrays + vtk)
+    // The finished mesh: two triangles per quad
+    std::vector<std::pair<std::string, double>> finished = surfaceMeshBytes(vertices, 2 * quads, components, polyData);
+    double mesh = 0;
+    for (const auto& p : finished) mesh += p.second;
+    if (extraction >= mesh)
         return {{"level_set", levelSet}, {inMesher > returned ? "mesher_trees_and_pools" : "mesher_output", extraction - levelSet}};
+    return finished;
+}
+
+std::vector<std::pair<std::string, double>> surfaceMeshBytes(double vertices, double triangles, int components, bool polyData) {
+    const double mesh = 12.0 * vertices + 12.0 * triangles, arrays = 4.0 * components * vertices;
     std::vector<std::pair<std::string, double>> parts = {{"mesh", mesh}, {"sampled_arrays", arrays}};
-    if (polyData) parts.emplace_back("vtk_poly_data", vtk);
+    if (polyData) {
+        const double cells = triangles > 0 ? 32.0 * triangles : 16.0 * vertices;
+        parts.emplace_back("vtk_poly_data", 12.0 * vertices + cells + arrays);
+    }
     return parts;
 }
 

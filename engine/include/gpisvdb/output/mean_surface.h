@@ -35,6 +35,12 @@ SurfaceMesh isoSurface(const openvdb::FloatGrid& grid, double level);
 std::vector<std::pair<std::string, double>> meanSurfaceBytes(const openvdb::FloatGrid& mean, double iso, int components,
                                                              bool polyData, double* vertices = nullptr);
 
+/// What a finished mesh of `vertices` and `triangles` holds, bytes by part: its vertices (Vec3s) and triangles
+/// (3 int), `components` floats per vertex sampled on it, and with `polyData` VTK's copy of them all (a .vtp file
+/// or a render: float points, 64-bit offsets and connectivity, 32 B per triangle or 16 B per vertex cell of a mesh
+/// without triangles, the float arrays).
+std::vector<std::pair<std::string, double>> surfaceMeshBytes(double vertices, double triangles, int components, bool polyData);
+
 /// Σ of the triangles' areas, world units².
 double surfaceArea(const SurfaceMesh& mesh);
 
