@@ -131,3 +131,15 @@ TEST_CASE("memory: sample refuses beyond --max-memory before it allocates, namin
     // Room for half the points alone: nothing to leave out
     checkRefused(args + " --max-memory " + bytes(baseline + 0.5 * mesh), out, {"raise it"});
 }
+
+TEST_CASE("memory: the info command's estimate (the samples, and a cloud's spacing) is within 15 % of its stage's peak, on two sizes, and refused beyond --max-memory", "[memory][cli]") {
+    // 104 B per sample: 8 MB and 33 MB for the soups, 2.9 MB for the 21 000-point cloud
+    for (const std::string& input : {uvSphere(200), uvSphere(400), gpisvdb::test::dataPath("sphere_20k_normal.xyz")})
+        checkStage(childStage("info " + input, "samples"));
+    const std::string input = uvSphere(200), json = temp("memory_info_refused.json");
+    const nlohmann::json fits = childStage("info " + input, "samples");
+    const double baseline = fits["baseline_bytes"], estimate = fits["estimate_bytes"];
+    // No setting makes fewer samples: raise it
+    checkRefused("info " + input + " --report " + json + " --max-memory " + bytes(baseline + 0.5 * (estimate - baseline)), json,
+                 {"the sampling of the input needs about", "raise it"});
+}

@@ -18,6 +18,13 @@ using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<
                                                    CloudAdaptor, 3, std::size_t>;
 }  // namespace
 
+double cloudSamplingBytes(std::size_t points) {
+    // nanoflann splits down to leaves of at most 16 points (the tree's parameter below), about half of that on
+    // average: 2 n / 8 nodes
+    const double n = double(points), nodes = 2.0 * n / 8.0;
+    return 16.0 * n + double(sizeof(std::size_t)) * n + nodes * double(sizeof(KdTree::Node));
+}
+
 CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& options) {
     if (!(options.sigmaRel > 0) || !std::isfinite(options.sigmaRel))
         throw ParameterError("the relative noise σ (CloudNoiseOptions::sigmaRel) must be finite and > 0 (got " +
@@ -67,6 +74,10 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     out.sigma = options.sigmaRel * ell;
     Samples& S = out.samples;
     S.lengthScale = ell;
+    S.position.reserve(n);  // exactly: what samplesBytes counts, not up to twice that
+    S.normal.reserve(n);
+    S.positionVariance.reserve(n);
+    S.normalCovariance.reserve(n);
     for (std::size_t i = 0; i < n; ++i) {
         const double len = cloud.normals[i].norm();
         if (!(len > 0)) throw InputError("point " + std::to_string(i + 1) + " has a zero normal");

@@ -98,6 +98,17 @@ InputData readInput(const std::string& path) {
     return data;
 }
 
+double samplesBytes(std::size_t n) { return double(n) * double(2 * sizeof(Vec3d) + sizeof(double) + sizeof(Sym3)); }
+
+std::vector<std::pair<std::string, double>> makeSamplesBytes(const InputData& input) {
+    if (input.soup) return {{"samples", samplesBytes(input.soup->triangles.size())}};
+    if (input.cloud) {
+        const std::size_t n = input.cloud->positions.size();
+        return {{"samples", samplesBytes(n)}, {"spacing_and_areas", cloudSamplingBytes(n)}};
+    }
+    return {};
+}
+
 InputSamples makeSamples(const InputData& input, const NoiseOptions& options) {
     InputSamples out;
     detail::checkSampleCount(input.path, input.soup ? input.soup->triangles.size() : input.cloud ? input.cloud->positions.size() : 0,

@@ -41,7 +41,11 @@ SoupSamples soupSamples(const TriangleSoup& soup, const SoupNoiseOptions& option
     const double s2 = out.sigma * out.sigma;
     Samples& S = out.samples;
     S.lengthScale = ell;
+    // Exactly: what samplesBytes counts, not up to twice that (zero-area triangles left out leave a little unused)
     S.position.reserve(soup.triangles.size());
+    S.normal.reserve(soup.triangles.size());
+    S.positionVariance.reserve(soup.triangles.size());
+    S.normalCovariance.reserve(soup.triangles.size());
     for (const auto& t : soup.triangles) {
         const Vec3d& xu = soup.vertices[t[0]];
         const Vec3d& xv = soup.vertices[t[1]];

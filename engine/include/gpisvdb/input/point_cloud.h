@@ -29,4 +29,8 @@ struct CloudSamples {
 /// distance. Throws InputError on fewer than 2 points or a zero normal.
 CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& options = {});
 
+/// Bytes cloudSamples holds beside the samples it makes from `points` points while it makes them: each point's area
+/// and nearest-neighbour distance (16 B) and the k-d tree over the points (an 8 B index per point and its nodes).
+double cloudSamplingBytes(std::size_t points);
+
 }  // namespace gpisvdb

@@ -41,4 +41,8 @@ struct InputSamples {
 /// Samples of either kind of input with its noise model.
 InputSamples makeSamples(const InputData& input, const NoiseOptions& options = {});
 
+/// What makeSamples(input) allocates at its peak, bytes by part, counted from the input's size before it allocates
+/// (docs/memory.md#info): a sample per triangle or point (samplesBytes) and, for a cloud, cloudSamplingBytes.
+std::vector<std::pair<std::string, double>> makeSamplesBytes(const InputData& input);
+
 }  // namespace gpisvdb

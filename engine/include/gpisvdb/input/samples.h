@@ -29,4 +29,8 @@ struct Samples {
     std::size_t size() const { return position.size(); }
 };
 
+/// Bytes a Samples of n samples holds, its vectors reserved exactly: position and normal (Vec3d), the position
+/// variance (double) and the normal covariance (Sym3, 6 doubles): 104 B per sample.
+double samplesBytes(std::size_t n);
+
 }  // namespace gpisvdb
