@@ -143,3 +143,35 @@ TEST_CASE("memory: the info command's estimate (the samples, and a cloud's spaci
     checkRefused("info " + input + " --report " + json + " --max-memory " + bytes(baseline + 0.5 * (estimate - baseline)), json,
                  {"the sampling of the input needs about", "raise it"});
 }
+
+TEST_CASE("memory: the demo's estimates of its stages (Green's function, march and spectrum per sigma, pictures) are within 15 % of the peaks measured over them, on two sizes", "[memory][cli][demo]") {
+    const std::string dir = temp("memory_demo");
+    const std::pair<const char*, const char*> sizes[] = {{"0.08", "160"}, {"0.065", "320"}};
+    for (const auto& [h, width] : sizes) {
+        std::filesystem::remove_all(dir);
+        const Run r = run("demo -o " + dir + " --sigma 1 --sigma 3 -k 2 --voxel-size " + h + " --picture-width " + width + " --quiet");
+        INFO("h " << h << ", width " << width << ": " << r.err);
+        REQUIRE(r.code == 0);
+        const nlohmann::json report = nlohmann::json::parse(std::ifstream(dir + "/report.json"));
+        REQUIRE(report["runs"].size() == 2);
+        for (const auto& sigma : report["runs"])
+            for (const char* stage : {"green", "geodesic", "spectrum"}) {
+                INFO("sigma " << sigma["sigma_rel"] << ", " << stage);
+                checkStage(sigma["memory"]["stages"][stage]);
+            }
+        checkStage(report["memory"]["stages"]["pictures"]);
+    }
+}
+
+TEST_CASE("memory: the demo refuses pictures beyond --max-memory, naming the picture width that fits, and leaves no directory", "[memory][cli][demo]") {
+    const std::string dir = temp("memory_demo_refused");
+    const std::string args = "demo -o " + dir + " --sigma 1 --sigma 3 -k 2 --voxel-size 0.08 --picture-width 320";
+    std::filesystem::remove_all(dir);
+    REQUIRE(run(args + " --quiet").code == 0);
+    const nlohmann::json pictures = nlohmann::json::parse(std::ifstream(dir + "/report.json"))["memory"]["stages"]["pictures"];
+    std::filesystem::remove_all(dir);
+    // Half the window beside the surfaces and the context: every earlier stage (the spectrum's ≈ 135 MB) fits
+    const double window = pictures["parts_bytes"]["window"];
+    INFO(pictures.dump());
+    checkRefused(args + " --max-memory " + bytes(double(pictures["estimate_bytes"]) - 0.5 * window), dir, {"use --picture-width"}, true);
+}

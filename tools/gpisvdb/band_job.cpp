@@ -161,6 +161,17 @@ MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::
     });
 }
 
+std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, const PcgOptions& options,
+                                                            Preconditioner preconditioner) {
+    std::vector<std::pair<std::string, double>> parts = {{"laplacian", laplacianOperatorBytes(voxels)},
+                                                         {"pcg", pcgWorkBytes(voxels, options)},
+                                                         {"rhs_and_solution", 8.0 * double(voxels)}};
+    if (preconditioner == Preconditioner::Multigrid) parts.emplace_back("multigrid", multigridBytes(voxels));
+    if (preconditioner == Preconditioner::IncompleteCholesky)
+        parts.emplace_back("incomplete_cholesky", incompleteCholeskyBytes(voxels));
+    return parts;
+}
+
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     openvdb::MetaMap meta;
     const auto& in = job.model.input;

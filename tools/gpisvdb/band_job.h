@@ -83,6 +83,12 @@ nlohmann::json solverReport(const PcgResult& result, const PcgOptions& options);
 /// limit, naming --max-memory and the voxel size that fits (the stage's bytes go as h⁻³ with the band's voxels).
 MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::vector<std::pair<std::string, double>> parts);
 
+/// What a Green's function solve on `voxels` band voxels allocates, bytes by part (docs/memory.md): the matrix-free
+/// L the PCG applies, its work vectors, the right-hand side and solution, and the set-up of `preconditioner` (the
+/// multigrid assembles L for hypre and keeps its hierarchy; the incomplete Cholesky assembles L and keeps its factor).
+std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, const PcgOptions& options,
+                                                            Preconditioner preconditioner);
+
 /// The Green's function's metadata: its source point and voxel, and the solve's iterations, residuals, refinements
 /// and preconditioner (gpisvdb green and gpisvdb-mpi green write the same keys).
 void addGreenMetadata(openvdb::MetaMap& meta, const Vec3d& source, const openvdb::Coord& sourceVoxel, const PcgResult& solve);

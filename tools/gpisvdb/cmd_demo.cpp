@@ -21,6 +21,8 @@
 #include "gpisvdb/output/render.h"
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/green.h"
+#include "memory_stage.h"
+#include "render_memory.h"
 #include "spectrum_job.h"
 
 namespace gpisvdb::cli {
@@ -55,6 +57,7 @@ struct DemoArgs {
     int threads = 0;
     bool quiet = false;
     bool half = false;
+    std::string maxMemory;  ///< --max-memory: "8G", "512M", "1e9"; empty: half the RAM
 };
 
 /// One σ's results, kept for the pictures and the summary.
@@ -71,6 +74,7 @@ struct SigmaRun {
     SurfaceMesh surface;
     openvdb::FloatGrid::Ptr mu;
     nlohmann::json timings;
+    nlohmann::json memory;  ///< memory.stages.<green|geodesic|spectrum>: estimated and measured (docs/memory.md#demo)
 };
 
 std::string sigmaText(double s) {
@@ -89,6 +93,7 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     flags.model.quiet = a.quiet;
     flags.band.voxelSize = a.voxelSize;
     flags.vdb.halfFloat = a.half;
+    flags.maxMemory = a.maxMemory;
 
     // === Band
     const BandJob job = runBand(data, flags, progress);
@@ -98,19 +103,28 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     run.voxelSize = job.options.voxelSize;
     run.mass = band.mass();
 
-    // === Green's function from the source (Alg. 1)
+    // === Green's function from the source (Alg. 1); each stage's memory estimated and refused before it allocates,
+    //     as the commands do, and measured over it (docs/memory.md#demo)
     auto t = Clock::now();
-    const LaplacianOperator L(band);
     PcgOptions pcg;
     pcg.tolerance = 1e-5;  // pictures need far less than the default 1e-6
+    const MemoryEstimate greenMemory = estimateStage(
+        job, "Green's function solve",
+        greenSolveBytes(band.size(), pcg, resolvePreconditioner(pcg.preconditioner, band.size(), /*assemblable: L*/ true)));
+    bool stageOnly = resetPeakResident();
+    const LaplacianOperator L(band);
     const GreenResult green = greensFunction(band, L, kSource, pcg, progress);
+    run.memory["green"] = memoryStageReport(greenMemory, peakResidentBytes(), stageOnly);
     requireConverged(green.solver, pcg);
     run.greenIterations = green.solver.iterations;
     const double secondsGreen = since(t);
 
     // === Geodesic distance from the source, shortest path from the target (Eq. 28)
     t = Clock::now();
+    const MemoryEstimate marchMemory = estimateStage(job, "fast march", {{"fast_marching", geodesicMarchBytes(band)}});
+    stageOnly = resetPeakResident();
     const GeodesicResult geo = geodesicDistance(band, {kSource}, {kTarget}, {}, progress);
+    run.memory["geodesic"] = memoryStageReport(marchMemory, peakResidentBytes(), stageOnly);
     std::vector<float> U(band.size());
     for (std::size_t i = 0; i < band.size(); ++i) U[i] = float(geo.march.distance[i]);
     run.path = geo.paths.front();
@@ -121,7 +135,9 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     t = Clock::now();
     EigenOptions eo;
     eo.count = a.eigenCount;
-    const EigenResult eigen = runSpectrum(job, eo, progress);
+    nlohmann::json spectrumStage;
+    const EigenResult eigen = runSpectrum(job, eo, progress, &spectrumStage);
+    run.memory["spectrum"] = spectrumStage;
     const double secondsSpectrum = since(t);
     std::vector<std::vector<float>> vectors(std::size_t(eigen.values.size()));
     std::vector<NamedChannel> channels{{"green", &green.values}, {"geodesic", &U}};
@@ -262,6 +278,8 @@ void addDemo(CLI::App& app, Action& action) {
     cmd->add_flag("--half", a->half, "store the .vdb grids as 16-bit floats");
     cmd->add_option("--threads", a->threads, "worker threads (0 = all cores)")->capture_default_str();
     cmd->add_flag("--quiet", a->quiet, "no progress bars or summary lines");
+    cmd->add_option("--max-memory", a->maxMemory,
+                    "refuse a band, solve or picture needing more memory than this, e.g. 8G (default: half the RAM)");
     cmd->footer("Writes DIR/summary.md, DIR/report.json, DIR/input.png, DIR/comparison.png and, per sigma,\n"
                 "DIR/sigma-<s>/{gpis.vdb, surface.vtp, path.vtp}. About a minute on 2 cores.\n"
                 "Examples:\n  gpisvdb demo -o demo-output\n  gpisvdb demo -o quick --sigma 1 --sigma 3 --voxel-size 0.08");
@@ -274,6 +292,7 @@ void addDemo(CLI::App& app, Action& action) {
                 throw ParameterError("--voxel-size must be in [0.01, 0.2] for the built-in torus");
             if (a->eigenCount < 1 || a->eigenCount > 20) throw ParameterError("-k must be in [1, 20]");
             if (a->pictureWidth < 64 || a->pictureWidth > 2000) throw ParameterError("--picture-width must be in [64, 2000]");
+            const double limit = memoryLimit(StageFlags{a->maxMemory, ""});
             const auto threads = limitThreads(a->threads);
             AtomicDirectory out(a->dir);
             const fs::path tmp(out.tempPath());
@@ -292,8 +311,24 @@ void addDemo(CLI::App& app, Action& action) {
                               << ", lambda_0 = " << r.eigenvalues.front() << "\n";
             }
             const auto tPictures = Clock::now();
-            inputPicture(*data.soup, *a, (tmp / "input.png").string());
+            // The comparison's memory (the larger picture): each surface in its 4 surface panels, the window of 5
+            // panels per sigma (docs/memory.md#demo); the input's picture, made after it, holds less
+            double panelVertices = 0;
+            for (const SigmaRun& r : runs) panelVertices += 4.0 * double(r.surface.vertices.size());
+            const double panelPixels = double(a->pictureWidth) * double(a->pictureWidth * 5 / 6);
+            const double pixels = 5.0 * double(runs.size()) * panelPixels;
+            const MemoryEstimate picturesMemory = estimateStageWithin(
+                limit, "pictures", "libraries, the results of every sigma", renderBytes(panelVertices, pixels),
+                [&](double need, double available) {
+                    const double window = pixels * kRenderBytesPerPixel, fixed = need - window;
+                    const double width = available > fixed ? std::floor(a->pictureWidth * std::sqrt((available - fixed) / window) * 0.95) : 0;
+                    if (width >= 64) return "use --picture-width " + numberText(width) + " or smaller";
+                    return "raise it (the renderer alone holds about " + numberText(kRenderContextBytes / 1e6) + " MB)";
+                });
+            const bool picturesOnly = resetPeakResident();
             comparisonPicture(runs, *a, (tmp / "comparison.png").string());
+            const double picturesPeak = peakResidentBytes();
+            inputPicture(*data.soup, *a, (tmp / "input.png").string());  // after: the renderer's state it leaves is not the comparison's
             const double secondsPictures = since(tPictures);
             const double ell = makeSamples(data, {}).samples.lengthScale;
             const double total = since(start);
@@ -310,8 +345,10 @@ void addDemo(CLI::App& app, Action& action) {
                                           {"green_pcg_iterations", r.greenIterations},
                                           {"path", {{"length", r.path.length}, {"distance", r.path.distance},
                                                     {"crosses_gap", r.pathCrossesGap}, {"reached_source", r.path.reachedSource}}},
-                                          {"eigenvalues", r.eigenvalues}, {"timings_s", r.timings}});
+                                          {"eigenvalues", r.eigenvalues}, {"timings_s", r.timings},
+                                          {"memory", {{"stages", r.memory}}}});
             report["timings_s"] = {{"pictures", secondsPictures}, {"total", total}};
+            report["memory"] = stageReport("pictures", memoryStageReport(picturesMemory, picturesPeak, picturesOnly))["memory"];
             report["command_line"] = commandLine();
             std::ofstream((tmp / "report.json").string()) << report.dump(2) << "\n";
             out.commit();

@@ -45,14 +45,8 @@ void addGreen(CLI::App& app, Action& action) {
             // hypre and keeps only its hierarchy; the incomplete Cholesky assembles L and keeps its factor.
             const Preconditioner preconditioner =
                 resolvePreconditioner(a->solver.preconditioner, band.size(), /*assemblable: L*/ true);
-            std::vector<std::pair<std::string, double>> parts = {
-                {"laplacian", laplacianOperatorBytes(band.size())},
-                {"pcg", pcgWorkBytes(band.size(), a->solver)},
-                {"rhs_and_solution", 8.0 * double(band.size())}};
-            if (preconditioner == Preconditioner::Multigrid) parts.emplace_back("multigrid", multigridBytes(band.size()));
-            if (preconditioner == Preconditioner::IncompleteCholesky)
-                parts.emplace_back("incomplete_cholesky", incompleteCholeskyBytes(band.size()));
-            const MemoryEstimate memory = estimateStage(job, "Green's function solve", std::move(parts));
+            const MemoryEstimate memory =
+                estimateStage(job, "Green's function solve", greenSolveBytes(band.size(), a->solver, preconditioner));
             const bool stageOnly = resetPeakResident();
             const auto tOps = Clock::now();
             const LaplacianOperator L(band);

@@ -12,21 +12,13 @@
 #include "gpisvdb/output/paths.h"
 #include "gpisvdb/output/render.h"
 #include "memory_stage.h"
+#include "render_memory.h"
 #include "vdb_file.h"
 
 namespace gpisvdb::cli {
 
 namespace {
 constexpr double kMinPanelPixels = 64, kMaxPanelPixels = 8192;
-/// Offscreen rendering, bytes per pixel: 8 multisamples of RGBA and depth (64 bytes), the resolved window and the
-/// PNG rows (measured: 83–88, docs/memory.md#render).
-constexpr double kRenderBytesPerPixel = 80;
-/// What a render adds whatever its size, bytes: the OpenGL driver's state (Mesa's llvmpipe, its threads and
-/// compiled shaders), VTK's render window, colour bar and text; measured (docs/memory.md#render).
-constexpr double kRenderContextBytes = 90e6;
-/// What VTK and the driver hold per surface vertex, bytes: the normals filter's output, the mapper's colours and
-/// the vertex and index buffers the driver keeps; measured (docs/memory.md#render).
-constexpr double kRenderBytesPerVertex = 820;
 }  // namespace
 
 void addRender(CLI::App& app, Action& action) {
