@@ -88,7 +88,7 @@ std::string pythonMessage(const Error& error) {
         {"SmoothedDistanceOptions::gridVoxelSize", "grid_voxel_size"},
         {"SmoothedDistanceOptions::padding", "padding"},
         {"SmoothedDistanceOptions::tolerance", "tolerance"},
-        {"SmoothedDistanceOptions::maxPoints", "max_memory"},
+        {"SmoothedDistanceOptions::maxBytes", "max_memory"},
         {"GeodesicOptions::maxBytes", "max_memory"},
         {"VdbWriteOptions::halfFloat", "half"},
     };
@@ -609,8 +609,9 @@ py::dict smoothedDistance(const PyBand& b, double alpha, std::optional<double> g
         if (!(o.tolerance > 0) || !std::isfinite(o.tolerance)) throw ParameterError("tolerance must be finite and > 0");
     }
     o.bruteForce = bruteForce;
-    // Bytes per grid point: the values while they are computed, the dense grid, and the numpy copy.
-    o.maxPoints = std::size_t(b.taskBytes() / 16);
+    // The k-d tree, the values and the dense grid, as the command estimates them (smoothedDistanceBytes); the numpy
+    // copy below (4 B per point) is made once the tree and the values are freed, so it adds nothing to that peak.
+    o.maxBytes = b.taskBytes();
     Work work(threads, std::move(progress));
     SmoothedDistanceResult r = work([&](const Progress& progress) { return smoothedDistanceGrid(b.band(), o, progress); });
     const openvdb::CoordBBox box = r.grid->evalActiveVoxelBoundingBox();

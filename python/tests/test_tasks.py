@@ -1,12 +1,13 @@
 """The tasks on a band from Python, each against the command line's result on the same input or its defining
 property."""
 import json
+import re
 
 import numpy as np
 import pytest
 
 import gpisvdb
-from conftest import FLAGS, at_coords, read_grid, run_cli
+from conftest import FLAGS, VOXEL, at_coords, read_grid, run_cli
 
 SOURCE, TARGET = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
 
@@ -124,6 +125,21 @@ def test_smoothed_distance_grows_away_from_the_sphere(band):
     assert on_surface < values[tuple(centre)] and on_surface < corner
     with pytest.raises(gpisvdb.ParameterError, match="alpha"):
         band.smoothed_distance(-1.0)
+
+
+def test_smoothed_distance_refuses_a_grid_beyond_max_memory_naming_the_grid_voxel_size_that_fits(model):
+    # The grid's memory as the command estimates it (k-d tree, values, dense grid), against what max_memory leaves
+    # beside the band: a 0.01 grid (about 2e7 points) needs far more than the 6 MB left, the size it names fits
+    # (a coarse tolerance keeps that run short; the memory does not depend on it).
+    small = gpisvdb.band(model, voxel_size=VOXEL, max_memory=9e6)
+    with pytest.raises(gpisvdb.MemoryLimitError) as e:
+        small.smoothed_distance(20.0, grid_voxel_size=0.01, tolerance=0.05)
+    message = str(e.value)
+    assert "(max_memory)" in message and "grid voxel size (grid_voxel_size) of" in message
+    fits = float(re.search(r"grid voxel size \(grid_voxel_size\) of ([0-9.e+-]+)", message).group(1))
+    assert 0.01 < fits < 0.1
+    d = small.smoothed_distance(20.0, grid_voxel_size=fits, tolerance=0.05)
+    assert d["voxel_size"] == pytest.approx(fits)
 
 
 def test_mean_surface_lies_on_the_sphere_and_carries_channels(band):

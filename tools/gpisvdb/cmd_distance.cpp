@@ -56,18 +56,16 @@ void addDistance(CLI::App& app, Action& action) {
 
             // === The distance grid: its memory (the k-d tree over the band's voxels, the values, the dense grid and
             //     the level set's copy; docs/memory.md#distance) estimated and refused before any of it is allocated
-            std::vector<std::pair<std::string, double>> parts = smoothedDistanceBytes(band, a->distance, !std::isnan(a->level));
-            double treeBytes = 0;  // the parts that do not shrink with a coarser grid
-            for (const auto& [name, bytes] : parts)
-                if (name.rfind("kd_tree", 0) == 0) treeBytes += bytes;
-            const double H = smoothedDistanceGridShape(band, a->distance).voxelSize, h = job.options.voxelSize;
+            const bool levelCopy = !std::isnan(a->level);
+            const double h = job.options.voxelSize;
             const MemoryEstimate memory = estimateStageWithin(
-                job.maxMemory, "distance grid", "libraries, input, band", std::move(parts), [&](double need, double available) {
-                    if (available > treeBytes && need > treeBytes)  // the grid's bytes go as H⁻³
-                        return "use a grid voxel size (--grid-voxel-size) of " +
-                               numberText(H * std::cbrt((need - treeBytes) / (available - treeBytes)) * 1.05) + " or larger";
+                job.maxMemory, "distance grid", "libraries, input, band", smoothedDistanceBytes(band, a->distance, levelCopy),
+                [&](double need, double available) {
+                    // The grid's leaves and nodes do not shrink as H⁻³: the size that fits is searched, not scaled
+                    if (const double H = smoothedDistanceGridVoxelSizeWithin(band, a->distance, levelCopy, available); H > 0)
+                        return "use a grid voxel size (--grid-voxel-size) of " + numberText(H * 1.001) + " or larger";
                     return "use a voxel size (--voxel-size) of " + numberText(h * std::cbrt(need / available) * 1.1) +
-                           " or larger (the tree over the band's voxels alone does not fit)";
+                           " or larger (no grid voxel size fits beside the tree over the band's voxels and the grid's top-level nodes)";
                 });
             const bool stageOnly = resetPeakResident();
             const auto tDistance = Clock::now();

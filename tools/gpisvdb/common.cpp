@@ -197,7 +197,7 @@ std::string errorMessage(const Error& error) {
         {"SmoothedDistanceOptions::gridVoxelSize", "--grid-voxel-size"},
         {"SmoothedDistanceOptions::padding", "--padding"},
         {"SmoothedDistanceOptions::tolerance", "--distance-tolerance"},
-        {"SmoothedDistanceOptions::maxPoints", "--max-memory"},
+        {"SmoothedDistanceOptions::maxBytes", "--max-memory"},
         {"GeodesicOptions::maxBytes", "--max-memory"},
         {"VdbWriteOptions::halfFloat", "--half"},
         {"RenderPanel::logScale", "--log"},

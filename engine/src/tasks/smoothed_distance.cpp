@@ -259,17 +259,48 @@ std::vector<std::pair<std::string, double>> smoothedDistanceBytes(const Band& ba
     return {{"kd_tree", tree}, {"values", values}, {"grid", grid}};
 }
 
+double smoothedDistanceGridVoxelSizeWithin(const Band& band, const SmoothedDistanceOptions& o, bool levelCopy, double bytes) {
+    SmoothedDistanceOptions t = o;
+    t.gridVoxelSize = smoothedDistanceGridShape(band, o).voxelSize;
+    double last = -1;
+    for (int step = 0; step < 5000; ++step, t.gridVoxelSize *= 1.02) {
+        double need = 0;
+        for (const auto& [name, b] : smoothedDistanceBytes(band, t, levelCopy)) need += b;
+        if (need <= bytes) return t.gridVoxelSize;
+        const double points = smoothedDistanceGridShape(band, t).points;
+        if (points == last && points <= 8) return 0;  // a grid of one or two points along each axis: only the tree is left
+        last = points;
+    }
+    return 0;
+}
+
 SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDistanceOptions& o, const Progress& progress) {
     if (band.size() == 0) throw Error("smoothed distance: the band is empty");
     const DistanceGridShape shape = smoothedDistanceGridShape(band, o);
     const Vec3d first = shape.first, count = shape.count;
     const double H = shape.voxelSize, points = shape.points;
-    const double cap = o.maxPoints ? double(o.maxPoints) : 2147483648.0;
-    if (!(points <= cap) || (count.array() > 2e9).any())
+    constexpr double kMaxPoints = 2147483648.0;  // 2^31: the points are counted in int
+    if (!(points <= kMaxPoints) || (count.array() > 2e9).any())
         throw MemoryLimitError("the distance grid would hold " + numberText(points) + " points at grid voxel size H = " + numberText(H) +
-                             ", more than " + numberText(cap) + ": use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " +
-                             numberText(H * std::cbrt(points / cap) * 1.01) + " or larger",
+                             ", more than " + numberText(kMaxPoints) + ": use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " +
+                             numberText(H * std::cbrt(points / kMaxPoints) * 1.01) + " or larger",
                              {"SmoothedDistanceOptions::gridVoxelSize"});
+    if (o.maxBytes > 0) {
+        // The peak as the command estimates it (docs/memory.md#distance)
+        double need = 0;
+        for (const auto& [name, bytes] : smoothedDistanceBytes(band, o, false)) need += bytes;
+        if (need > o.maxBytes) {
+            const std::string what = "the distance grid at grid voxel size H = " + numberText(H) + " needs about " +
+                                     numberText(need / 1e6) + " MB (the k-d tree over the band's voxels, the values and the dense grid), more than the " +
+                                     numberText(o.maxBytes / 1e6) + " MB allowed (SmoothedDistanceOptions::maxBytes): ";
+            if (const double fits = smoothedDistanceGridVoxelSizeWithin(band, o, false, o.maxBytes); fits > 0)
+                throw MemoryLimitError(what + "use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " + numberText(fits * 1.001) + " or larger",
+                                       {"SmoothedDistanceOptions::maxBytes", "SmoothedDistanceOptions::gridVoxelSize"});
+            throw MemoryLimitError(what + "no grid voxel size fits beside the k-d tree over the band's voxels and the grid's top-level "
+                                          "nodes: use a coarser voxel size (BandOptions::voxelSize) or raise the limit",
+                                   {"SmoothedDistanceOptions::maxBytes", "BandOptions::voxelSize"});
+        }
+    }
     const double tol = o.tolerance > 0 ? o.tolerance : 1e-2 * H;
     if (!std::isfinite(tol)) throw ParameterError("the distance tolerance (SmoothedDistanceOptions::tolerance) must be finite and > 0", {"SmoothedDistanceOptions::tolerance"});
 

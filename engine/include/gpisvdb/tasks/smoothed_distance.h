@@ -51,7 +51,8 @@ struct SmoothedDistanceOptions {
     double padding = -1;        ///< margin around the band's box, world units (< 0: 10 % of its longest side)
     double tolerance = 0;       ///< bound on |d − d_exact| per point, world units (0: H / 100)
     bool bruteForce = false;    ///< exact sums over all voxels instead of the tree (the measured baseline)
-    std::size_t maxPoints = 0;  ///< refuse grids with more points than this (0: 2^31)
+    double maxBytes = 0;        ///< refuse a grid whose peak (smoothedDistanceBytes, no level-set copy) exceeds
+                                ///< this, bytes (0: no limit); grids of more than 2^31 points are refused whatever it is
 };
 
 struct SmoothedDistanceResult {
@@ -82,6 +83,12 @@ DistanceGridShape smoothedDistanceGridShape(const Band& band, const SmoothedDist
 /// OpenVDB grid's leaves and internal nodes); with `levelCopy`, also the command's copy of the grid beside it.
 std::vector<std::pair<std::string, double>> smoothedDistanceBytes(const Band& band, const SmoothedDistanceOptions& options,
                                                                   bool levelCopy);
+
+/// The smallest grid voxel size at which smoothedDistanceBytes(band, options, levelCopy) sums to at most `bytes`,
+/// from options' own H up in steps of 2 % (the grid's leaves and nodes do not shrink as H⁻³, so no closed form
+/// names it); 0 when none does: the k-d tree over the band's voxels alone is larger.
+double smoothedDistanceGridVoxelSizeWithin(const Band& band, const SmoothedDistanceOptions& options, bool levelCopy,
+                                           double bytes);
 
 /// d_α on a grid covering the band's box plus padding; grid point k sits at H·k (world units). Parallel over
 /// points; the result does not depend on the thread count.
