@@ -259,8 +259,9 @@ nlohmann::json tolerances(const Problem& p) {
     return row;
 }
 
-/// Jacobi (matrix-free, our default) against the multigrid preconditioner (BoomerAMG on the assembled L) on the
-/// Green's function's system to 1e-6: set-up, solve, iterations, memory, hierarchy.
+/// Jacobi (matrix-free) against the multigrid preconditioners — BoomerAMG on the assembled L, and the aggregation
+/// multigrid on the matrix-free L — on the Green's function's system to 1e-6: set-up, solve, iterations, memory,
+/// hierarchy.
 nlohmann::json multigridRow(const Problem& p, double tolerance) {
     const Band& band = p.band;
     const std::size_t n = band.size();
@@ -292,6 +293,10 @@ nlohmann::json multigridRow(const Problem& p, double tolerance) {
                               {"max_interpolation_entries", o.multigrid.maxInterpolationEntries},
                               {"aggressive_levels", o.multigrid.aggressiveLevels}};
         }
+        if (const AggregationMultigrid* agg = solver.aggregation()) {
+            out["levels"] = agg->levels();
+            out["operator_complexity"] = agg->operatorComplexity();
+        }
         return out;
     };
     PcgOptions o;
@@ -303,6 +308,9 @@ nlohmann::json multigridRow(const Problem& p, double tolerance) {
     o.multigrid = gAmg;
     row["multigrid"] = timed(o);
     row["speedup_total"] = row["jacobi"]["total_s"].get<double>() / row["multigrid"]["total_s"].get<double>();
+    o.preconditioner = Preconditioner::Aggregation;
+    row["aggregation"] = timed(o);
+    row["aggregation_speedup_total"] = row["jacobi"]["total_s"].get<double>() / row["aggregation"]["total_s"].get<double>();
     return row;
 }
 

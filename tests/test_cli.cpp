@@ -521,6 +521,39 @@ TEST_CASE("cli: green writes 'green': positive, largest at the nearest voxel to 
     CHECK_THAT(ts.str(), Catch::Contains("Name: green"));
 }
 
+TEST_CASE("cli: green --spill writes the same grids, and auto spills only when the solve would not fit", "[cli]") {
+    // The band's own grids written ahead and their channels freed for the solve (docs/memory.md#spill): the file
+    // must not change. The aggregation multigrid is asked for on this small band (auto picks it from 1e5 voxels).
+    const std::string input = gpisvdb::test::dataPath("bunny.obj");
+    const std::string common = " --source 0.5,6,1 --sigma 2 --voxel-size 0.4 --preconditioner aggregation --quiet";
+    std::map<std::string, nlohmann::json> reports;
+    for (const std::string mode : {"always", "never", "auto"}) {
+        const std::string vdb = temp("spill_" + mode + ".vdb"), json = temp("spill_" + mode + ".json");
+        const Run r = run("green " + input + common + " --spill " + mode + " -o " + vdb + " --report " + json);
+        INFO(mode << ": " << r.err);
+        REQUIRE(r.code == 0);
+        reports[mode] = nlohmann::json::parse(std::ifstream(json));
+        CHECK(reports[mode]["solver"]["preconditioner"].get<std::string>() == "aggregation");
+        CHECK(reports[mode]["solver"]["multigrid"]["levels"].get<int>() >= 2);
+        for (const auto& e : fs::directory_iterator(fs::path(vdb).parent_path()))  // no side file left behind
+            CHECK(e.path().filename().string().find(".grids") == std::string::npos);
+    }
+    CHECK(reports["always"]["green"]["spilled_band_grids"].get<bool>());
+    CHECK_FALSE(reports["never"]["green"]["spilled_band_grids"].get<bool>());
+    CHECK_FALSE(reports["auto"]["green"]["spilled_band_grids"].get<bool>());  // half the RAM is plenty here
+    // The band's bytes per voxel are those of the band as built, not after its channels were freed.
+    CHECK(reports["always"]["memory"]["band_bytes_per_voxel"] == reports["never"]["memory"]["band_bytes_per_voxel"]);
+    for (const std::string grid : {"mu", "mean", "stddev", "stencil_width", "green"}) {
+        INFO(grid);
+        const auto a = readFloatGrid(temp("spill_always.vdb"), grid);
+        const auto b = readFloatGrid(temp("spill_never.vdb"), grid);
+        REQUIRE((a && b));
+        CHECK(a->activeVoxelCount() == b->activeVoxelCount());
+        auto acc = b->getConstAccessor();
+        for (auto it = a->cbeginValueOn(); it; ++it) REQUIRE(*it == acc.getValue(it.getCoord()));
+    }
+}
+
 TEST_CASE("cli: hodge succeeds at its default tolerance where the float PCG alone stalls", "[cli]") {
     // The float PCG alone stalls at 1.6e-6 here (above the default 1e-6; the command failed before iterative
     // refinement, issue 18): the solve now continues in double and meets it. About 5 s.

@@ -308,3 +308,73 @@ TEST_CASE("output: writeBandVdb streams the grids of bandGrids and sellingGrids 
     for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();
     CHECK(files == 1);
 }
+
+TEST_CASE("output: a band whose grids were spilled writes the same file as one written from memory", "[output]") {
+    Band band = test::sphereBand();
+    std::vector<float> scalar(band.size()), vec(3 * band.size());
+    for (std::size_t i = 0; i < band.size(); ++i) {
+        scalar[i] = i % 5 == 0 ? std::numeric_limits<float>::quiet_NaN() : 0.25f * float(i);
+        for (int d = 0; d < 3; ++d) vec[3 * i + std::size_t(d)] = float(d) + 0.125f * float(i);
+    }
+    const std::vector<NamedChannel> extra{{"green", &scalar, 0.0f}};
+    const std::vector<NamedVectorChannel> vectors{{"flow", &vec, openvdb::VEC_CONTRAVARIANT_RELATIVE}};
+    openvdb::MetaMap meta;
+    meta.insertMeta("sigma_rel", openvdb::DoubleMetadata(0.5));
+    const std::filesystem::path dir = test::scratchDir() / "spilled";
+    for (const bool half : {false, true}) {
+        INFO("half floats: " << half);
+        std::filesystem::remove_all(dir);
+        std::filesystem::create_directories(dir);
+        VdbWriteOptions options;
+        options.halfFloat = half;
+        options.sellingStencils = true;
+        const std::string fromMemory = (dir / "memory.vdb").string(), fromSpill = (dir / "spill.vdb").string();
+        writeBandVdb(band, fromMemory, meta, extra, vectors, options);
+        Band spilledBand = band;
+        {
+            const SpilledBandGrids spilled(spilledBand, (dir / "side.vdb").string(), options);
+            CHECK(std::filesystem::exists(spilled.path()));
+            const double freed = spillableChannelBytes(spilledBand);
+            CHECK(freed >= 44.0 * double(band.size()));
+            releaseSpilledChannels(spilledBand);
+            CHECK(spillableChannelBytes(spilledBand) == 0);
+            CHECK(spilledBand.mu == band.mu);
+            // The channels are gone: writing from memory would read them, and is refused.
+            CHECK_THROWS_WITH(writeBandVdb(spilledBand, fromSpill, meta, extra, vectors, options), Catch::Contains("spill"));
+            VdbWriteOptions other = options;
+            other.halfFloat = !half;
+            CHECK_THROWS_AS(writeBandVdb(spilledBand, spilled, fromSpill, meta, extra, vectors, other), Error);
+            writeBandVdb(spilledBand, spilled, fromSpill, meta, extra, vectors, options);
+        }
+        CHECK_FALSE(std::filesystem::exists(dir / "side.vdb"));  // the side file goes with its SpilledBandGrids
+
+        // === The same grids in the same order, with the same metadata, classes and active values
+        openvdb::io::File a(fromMemory), b(fromSpill);
+        a.open();
+        b.open();
+        CHECK(b.getMetadata()->metaValue<double>("sigma_rel") == 0.5);
+        const openvdb::GridPtrVecPtr ga = a.readAllGridMetadata(), gb = b.readAllGridMetadata();
+        REQUIRE(ga->size() == gb->size());
+        for (std::size_t k = 0; k < ga->size(); ++k) {
+            const std::string name = (*ga)[k]->getName();
+            INFO(name);
+            REQUIRE((*gb)[k]->getName() == name);
+            const openvdb::GridBase::Ptr x = a.readGrid(name), y = b.readGrid(name);
+            REQUIRE(x->type() == y->type());
+            CHECK(x->getGridClass() == y->getGridClass());
+            CHECK(x->getVectorType() == y->getVectorType());
+            CHECK(x->saveFloatAsHalf() == y->saveFloatAsHalf());
+            CHECK(x->activeVoxelCount() == y->activeVoxelCount());
+            CHECK(x->transform() == y->transform());
+            if (auto f = openvdb::GridBase::grid<openvdb::FloatGrid>(x)) {
+                auto g = openvdb::GridBase::grid<openvdb::FloatGrid>(y)->getConstAccessor();
+                for (auto it = f->cbeginValueOn(); it; ++it) REQUIRE(*it == g.getValue(it.getCoord()));
+            } else {
+                auto v = openvdb::GridBase::grid<openvdb::Vec3SGrid>(x);
+                REQUIRE(v);
+                auto g = openvdb::GridBase::grid<openvdb::Vec3SGrid>(y)->getConstAccessor();
+                for (auto it = v->cbeginValueOn(); it; ++it) REQUIRE(*it == g.getValue(it.getCoord()));
+            }
+        }
+    }
+}

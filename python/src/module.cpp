@@ -442,9 +442,10 @@ PcgOptions pcgOptions(double tolerance, int maxIterations, const std::string& pr
     o.maxIterations = maxIterations;
     if (preconditioner == "auto") o.preconditioner = Preconditioner::Automatic;
     else if (preconditioner == "multigrid") o.preconditioner = Preconditioner::Multigrid;
+    else if (preconditioner == "aggregation") o.preconditioner = Preconditioner::Aggregation;
     else if (preconditioner == "jacobi") o.preconditioner = Preconditioner::Jacobi;
     else if (preconditioner == "ic") o.preconditioner = Preconditioner::IncompleteCholesky;
-    else throw ParameterError("preconditioner must be 'auto', 'multigrid', 'jacobi' or 'ic', got '" + preconditioner + "'");
+    else throw ParameterError("preconditioner must be 'auto', 'aggregation', 'multigrid', 'jacobi' or 'ic', got '" + preconditioner + "'");
     if (!(tolerance > 0) || !std::isfinite(tolerance)) throw ParameterError("tolerance must be finite and > 0");
     if (maxIterations < 1) throw ParameterError("max_iterations must be >= 1");
     return o;

@@ -37,6 +37,10 @@ def test_green_multigrid_equals_jacobi_within_the_tolerance_and_matches_the_comm
             "--preconditioner", "multigrid", *FLAGS)
     dense, lo = read_grid(tmp_path / "green.vdb", "green")
     np.testing.assert_array_equal(at_coords(dense, lo, band.coords), multigrid["values"])
+    aggregation = band.green(SOURCE, preconditioner="aggregation")
+    assert aggregation["solver"]["preconditioner"] == "aggregation"
+    assert aggregation["solver"]["iterations"] < jacobi["solver"]["iterations"]
+    assert np.linalg.norm(aggregation["values"] - jacobi["values"]) <= 5e-5 * scale
     with pytest.raises(gpisvdb.ParameterError):
         band.green(SOURCE, preconditioner="amg")
 

@@ -61,6 +61,7 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     const auto tBand = Clock::now();
     DefaultBand built = buildDefaultBand(*job.model.model, job.model.input.samples, options, progress);
     job.secondsBand = since(tBand);
+    job.bandBytesPerVoxel = job.result.band.bytesPerVoxel();
     job.resolution = built.resolution;
     job.options = built.options;
     job.maxMemory = built.maxMemory;
@@ -111,10 +112,15 @@ void addSolverFlags(CLI::App& cmd, PcgOptions& o, SolverFlags which) {
     std::map<std::string, Preconditioner> names = {{"auto", Preconditioner::Automatic},
                                                    {"multigrid", Preconditioner::Multigrid},
                                                    {"jacobi", Preconditioner::Jacobi}};
-    if (!distributed) names.emplace("ic", Preconditioner::IncompleteCholesky);
+    if (!distributed) {
+        names.emplace("ic", Preconditioner::IncompleteCholesky);
+        names.emplace("aggregation", Preconditioner::Aggregation);
+    }
     cmd.add_option("--preconditioner", o.preconditioner,
                    std::string("auto (default: multigrid from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)") +
-                       (distributed ? " or jacobi" : ", jacobi or ic (incomplete Cholesky)"))
+                       (distributed ? " or jacobi"
+                                    : ", aggregation (memory-light multigrid, docs/operators.md#aggregation), jacobi or ic "
+                                      "(incomplete Cholesky)"))
         ->transform(CLI::CheckedTransformer(names));
 }
 
@@ -148,7 +154,7 @@ nlohmann::json solverReport(const PcgResult& r, const PcgOptions& options) {
                              {"refinements", r.refinements}, {"inner_iterations", r.innerIterations},
                              {"relative_residual", r.relativeResidual}, {"float_residual", r.floatResidual},
                              {"tolerance", options.tolerance}};
-    if (r.preconditioner == Preconditioner::Multigrid)
+    if (r.preconditioner == Preconditioner::Multigrid || r.preconditioner == Preconditioner::Aggregation)
         report["multigrid"] = {{"levels", r.multigridLevels}, {"operator_complexity", r.multigridComplexity}};
     return report;
 }
@@ -167,6 +173,7 @@ std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, 
                                                          {"pcg", pcgWorkBytes(voxels, options)},
                                                          {"rhs_and_solution", 8.0 * double(voxels)}};
     if (preconditioner == Preconditioner::Multigrid) parts.emplace_back("multigrid", multigridBytes(voxels));
+    if (preconditioner == Preconditioner::Aggregation) parts.emplace_back("aggregation", aggregationBytes(voxels));
     if (preconditioner == Preconditioner::IncompleteCholesky)
         parts.emplace_back("incomplete_cholesky", incompleteCholeskyBytes(voxels));
     return parts;
@@ -245,7 +252,7 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
                   {"stage_seconds", {{"model", st.modelSeconds}, {"kac_rice", st.kacRiceSeconds},
                                      {"search", st.searchSeconds}, {"finish", st.finishSeconds}}}}},
         {"warnings", job.warnings},
-        {"memory", {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0}, {"band_bytes_per_voxel", band.bytesPerVoxel()},
+        {"memory", {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0}, {"band_bytes_per_voxel", job.bandBytesPerVoxel},
                     {"estimated_peak_bytes", job.estimate.memory.peakBytes()},
                     {"estimate_baseline_bytes", job.estimate.memory.baselineBytes}}},
     };

@@ -36,6 +36,7 @@ struct BandJob {
     BandEstimate estimate;  ///< size and memory estimated before the build
     double maxMemory = 0;
     double secondsModel = 0, secondsBand = 0;
+    double bandBytesPerVoxel = 0;  ///< the band's, as built (a spill frees some of its channels later)
     /// Settings that change the result beyond its documented error (docs/band.md#warnings): the report's
     /// `warnings`, and one stderr line each unless --quiet.
     std::vector<std::string> warnings;
@@ -58,6 +59,14 @@ struct BandCommand {
     BandJob job;
 };
 BandCommand startBandCommand(const std::string& input, const std::string& output, const BandFlags& flags);
+
+/// Whether a command writes the band's own grids to a side file before its long stage and frees their channels
+/// (SpilledBandGrids, docs/memory.md#spill).
+enum class Spill {
+    Automatic,  ///< when the stage would not fit the memory limit otherwise
+    Always,
+    Never,
+};
 
 /// Which flags addSolverFlags registers.
 enum class SolverFlags {
@@ -85,7 +94,8 @@ MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::
 
 /// What a Green's function solve on `voxels` band voxels allocates, bytes by part (docs/memory.md): the matrix-free
 /// L the PCG applies, its work vectors, the right-hand side and solution, and the set-up of `preconditioner` (the
-/// multigrid assembles L for hypre and keeps its hierarchy; the incomplete Cholesky assembles L and keeps its factor).
+/// aggregation multigrid sums L's edges into its coarse levels; hypre's multigrid assembles L and keeps its
+/// hierarchy; the incomplete Cholesky assembles L and keeps its factor).
 std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, const PcgOptions& options,
                                                             Preconditioner preconditioner);
 

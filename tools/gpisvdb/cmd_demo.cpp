@@ -110,7 +110,7 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     pcg.tolerance = 1e-5;  // pictures need far less than the default 1e-6
     const MemoryEstimate greenMemory = estimateStage(
         job, "Green's function solve",
-        greenSolveBytes(band.size(), pcg, resolvePreconditioner(pcg.preconditioner, band.size(), /*assemblable: L*/ true)));
+        greenSolveBytes(band.size(), pcg, resolvePreconditioner(pcg.preconditioner, band.size(), /*assemblable*/ true, /*bandLaplacian*/ true)));
     bool stageOnly = resetPeakResident();
     const LaplacianOperator L(band);
     const GreenResult green = greensFunction(band, L, kSource, pcg, progress);

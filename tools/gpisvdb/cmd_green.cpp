@@ -17,6 +17,7 @@ void addGreen(CLI::App& app, Action& action) {
         std::vector<double> source;
         BandFlags flags;
         PcgOptions solver;
+        Spill spill = Spill::Automatic;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
@@ -27,6 +28,11 @@ void addGreen(CLI::App& app, Action& action) {
     cmd->add_option("-o,--output", a->output, "output .vdb (band grids and 'green')")->required();
     addBandFlags(*cmd, a->flags);
     addSolverFlags(*cmd, a->solver, SolverFlags::Preconditioner);
+    cmd->add_option("--spill", a->spill,
+                    "auto (default), always or never: write the band's grids to a side file before the solve and free "
+                    "their channels (44 B per voxel); auto does it when the solve would not fit --max-memory otherwise")
+        ->transform(CLI::CheckedTransformer(std::map<std::string, Spill>{
+            {"auto", Spill::Automatic}, {"always", Spill::Always}, {"never", Spill::Never}}));
     cmd->footer("Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
                 "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json");
     cmd->callback([&action, a] {
@@ -39,14 +45,29 @@ void addGreen(CLI::App& app, Action& action) {
             checkSolverFlags(a->solver);
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
             const BandJob& job = run.job;
-            const Band& band = job.result.band;
+            Band& band = run.job.result.band;
             // The operator's and the solve's memory: estimated and refused before they allocate, measured over them
-            // (docs/memory.md). The matrix-free L is what the PCG applies; the multigrid's set-up assembles L for
-            // hypre and keeps only its hierarchy; the incomplete Cholesky assembles L and keeps its factor.
+            // (docs/memory.md). The matrix-free L is what the PCG applies; the aggregation multigrid sums L's edges
+            // into its coarse levels; hypre's set-up assembles L and keeps only its hierarchy; the incomplete
+            // Cholesky assembles L and keeps its factor.
             const Preconditioner preconditioner =
-                resolvePreconditioner(a->solver.preconditioner, band.size(), /*assemblable: L*/ true);
-            const MemoryEstimate memory =
-                estimateStage(job, "Green's function solve", greenSolveBytes(band.size(), a->solver, preconditioner));
+                resolvePreconditioner(a->solver.preconditioner, band.size(), /*assemblable*/ true, /*bandLaplacian*/ true);
+            std::vector<std::pair<std::string, double>> parts = greenSolveBytes(band.size(), a->solver, preconditioner);
+            // === Spill: the band's own grids written ahead and their channels freed (docs/memory.md#spill); auto
+            //     spills when that makes the solve fit (else the estimate below refuses it as it stands)
+            double stageBytes = 0;
+            for (const auto& part : parts) stageBytes += part.second;
+            const double held = settledResidentBytes(), freed = spillableChannelBytes(band);
+            std::unique_ptr<SpilledBandGrids> spilled;
+            if (a->spill == Spill::Always || (a->spill == Spill::Automatic && held + stageBytes > job.maxMemory &&
+                                              held - freed + stageBytes <= job.maxMemory)) {
+                spilled = std::make_unique<SpilledBandGrids>(band, run.out->tempPath() + ".grids", a->flags.vdb);
+                releaseSpilledChannels(band);
+                if (!a->flags.model.quiet)
+                    std::cerr << "green: the band's grids are written ahead to " << spilled->path() << ", freeing "
+                              << numberText(freed / 1e6) << " MB for the solve\n";
+            }
+            const MemoryEstimate memory = estimateStage(job, "Green's function solve", std::move(parts));
             const bool stageOnly = resetPeakResident();
             const auto tOps = Clock::now();
             const LaplacianOperator L(band);
@@ -59,7 +80,8 @@ void addGreen(CLI::App& app, Action& action) {
             openvdb::MetaMap meta = bandMetadata(job, a->flags);
             const openvdb::Coord y = band.coord[g.sourceIndex];
             addGreenMetadata(meta, Vec3d(a->source[0], a->source[1], a->source[2]), y, g.solver);
-            writeBandVdb(band, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
+            if (spilled) writeBandVdb(band, *spilled, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
+            else writeBandVdb(band, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
             run.out->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
             if (run.report) {
@@ -67,7 +89,7 @@ void addGreen(CLI::App& app, Action& action) {
                 report["solver"] = solverReport(g.solver, a->solver);
                 report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
                 report["green"] = {{"source", a->source}, {"source_voxel", {y.x(), y.y(), y.z()}},
-                                   {"source_index", g.sourceIndex}};
+                                   {"source_index", g.sourceIndex}, {"spilled_band_grids", bool(spilled)}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps},
                                        {"solve", secondsSolve}, {"total", total}};
                 report["outputs"] = {a->output};

@@ -86,6 +86,14 @@ const double kMultigridBytesPerVoxel = 440;
 
 double multigridBytes(std::size_t n) { return kMultigridBytesPerVoxel * double(n); }
 
+// Measured: the green stage's peak with --preconditioner aggregation over its baseline, less the operator, the PCG
+// and the right-hand side counted above, 31 bytes per voxel on the bunny (σ_rel 1, h 0.05: 1.3 M voxels;
+// docs/memory.md#aggregation): the set-up's aggregates, first coarse level and its transposed edges, before the PCG
+// allocates its vectors (it holds ≈ 34 B per voxel once set up).
+const double kAggregationBytesPerVoxel = 32;
+
+double aggregationBytes(std::size_t n) { return kAggregationBytesPerVoxel * double(n); }
+
 // Measured: the green stage's peak with --preconditioner ic over its baseline, less the operator, the PCG and the
 // right-hand side counted above, 565–572 bytes per voxel on the bunny (σ_rel 2, h 0.25; σ_rel 1, h 0.1 and 0.07:
 // 20 k, 167 k and 486 k voxels; docs/memory.md#incomplete-cholesky).

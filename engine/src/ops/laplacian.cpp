@@ -189,6 +189,8 @@ LaplacianOperator::LaplacianOperator(const Band& band) : band_(band), schedule_(
 
 LaplacianOperator::~LaplacianOperator() = default;
 
+const std::int32_t* LaplacianOperator::neighbours() const { return schedule_->neighbour.data(); }
+
 std::size_t LaplacianOperator::memoryBytes() const {
     const auto& s = schedule_->scatter;
     return sizeof(Schedule) + s.leafRanges.capacity() * sizeof(s.leafRanges[0]) + s.blockStart.capacity() * sizeof(std::uint32_t) +

@@ -11,6 +11,7 @@
 #include <memory>
 #include <set>
 #include <openvdb/io/Archive.h>
+#include <openvdb/io/File.h>
 #include <openvdb/io/GridDescriptor.h>
 #include <openvdb/io/io.h>
 
@@ -87,12 +88,11 @@ void checkFiniteGrid(const openvdb::GridBase::ConstPtr& g, bool half) {
 /// Makes one grid when called; the band's writer makes, checks and writes them one at a time.
 using GridMaker = std::function<openvdb::GridBase::Ptr()>;
 
-std::vector<GridMaker> bandGridMakers(const Band& band, const std::vector<NamedChannel>& extra,
-                                      const std::vector<NamedVectorChannel>& vectors) {
-    for (const NamedChannel& c : extra)
-        if (!c.values || c.values->size() != band.size()) throw Error("channel '" + c.name + "' does not match the band");
-    for (const NamedVectorChannel& c : vectors)
-        if (!c.values || c.values->size() != 3 * band.size()) throw Error("vector channel '" + c.name + "' does not match the band");
+/// The band's own grids: mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width.
+std::vector<GridMaker> ownGridMakers(const Band& band) {
+    if (band.mean.size() != band.size() || band.stddev.size() != band.size() || band.T.size() != band.size() ||
+        band.normal.size() != band.size())
+        throw Error("the band's channels were released after a spill: write it with its SpilledBandGrids");
     std::vector<GridMaker> makers;
     makers.push_back([&band] {
         auto mu = channel<openvdb::FloatGrid>(band, "mu", [&](std::size_t i) { return band.mu[i]; });
@@ -119,6 +119,17 @@ std::vector<GridMaker> bandGridMakers(const Band& band, const std::vector<NamedC
     makers.push_back([&band] {
         return channel<openvdb::FloatGrid>(band, "stencil_width", [&](std::size_t i) { return float(band.stencil[i].width); });
     });
+    return makers;
+}
+
+/// A task's channels over the band: `extra` as float grids, then `vectors` as Vec3f grids.
+std::vector<GridMaker> channelGridMakers(const Band& band, const std::vector<NamedChannel>& extra,
+                                         const std::vector<NamedVectorChannel>& vectors) {
+    for (const NamedChannel& c : extra)
+        if (!c.values || c.values->size() != band.size()) throw Error("channel '" + c.name + "' does not match the band");
+    for (const NamedVectorChannel& c : vectors)
+        if (!c.values || c.values->size() != 3 * band.size()) throw Error("vector channel '" + c.name + "' does not match the band");
+    std::vector<GridMaker> makers;
     for (const NamedChannel& c : extra) {
         makers.push_back([&band, &c] {
             auto grid = channel<openvdb::FloatGrid>(band, c.name, [&](std::size_t i) { return (*c.values)[i]; }, c.background);
@@ -142,6 +153,14 @@ std::vector<GridMaker> bandGridMakers(const Band& band, const std::vector<NamedC
             return grid;
         });
     }
+    return makers;
+}
+
+std::vector<GridMaker> bandGridMakers(const Band& band, const std::vector<NamedChannel>& extra,
+                                      const std::vector<NamedVectorChannel>& vectors) {
+    std::vector<GridMaker> makers = channelGridMakers(band, extra, vectors);  // checked before the band's grids are made
+    std::vector<GridMaker> own = ownGridMakers(band);
+    makers.insert(makers.begin(), own.begin(), own.end());
     return makers;
 }
 
@@ -212,10 +231,12 @@ private:
 };
 
 /// Makes, checks and writes the grids one at a time into a sibling temporary file, renamed to `path` at the end:
-/// a grid that fails its check (or any error) leaves no file behind and `path` untouched.
-void writeGridsStreaming(const std::vector<GridMaker>& makers, const std::string& path, const openvdb::MetaMap& metadata,
-                         const VdbWriteOptions& options) {
+/// a grid that fails its check (or any error) leaves no file behind and `path` untouched. Returns the grids' names
+/// in file order.
+std::vector<std::string> writeGridsStreaming(const std::vector<GridMaker>& makers, const std::string& path,
+                                             const openvdb::MetaMap& metadata, const VdbWriteOptions& options) {
     openvdb::initialize();
+    std::vector<std::string> names;
     const std::string temp = path + ".part" + std::to_string(::getpid());
     try {
         GridStreamWriter writer(temp, path, metadata, makers.size());
@@ -224,6 +245,7 @@ void writeGridsStreaming(const std::vector<GridMaker>& makers, const std::string
             checkFiniteGrid(grid, options.halfFloat);
             grid->setSaveFloatAsHalf(options.halfFloat);
             writer.write(grid);
+            names.push_back(grid->getName());
         }
         writer.close();
     } catch (const openvdb::Exception& e) {
@@ -237,6 +259,7 @@ void writeGridsStreaming(const std::vector<GridMaker>& makers, const std::string
         std::remove(temp.c_str());
         throw OutputError(path + ": cannot write the VDB file (rename from " + temp + " failed)");
     }
+    return names;
 }
 
 }  // namespace
@@ -275,6 +298,49 @@ void writeBandVdb(const Band& band, const std::string& path, const openvdb::Meta
                   const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors,
                   const VdbWriteOptions& options) {
     std::vector<GridMaker> makers = bandGridMakers(band, extra, vectors);
+    if (options.sellingStencils) {
+        std::vector<GridMaker> selling = sellingGridMakers(band);
+        makers.insert(makers.end(), selling.begin(), selling.end());
+    }
+    writeGridsStreaming(makers, path, metadata, options);
+}
+
+SpilledBandGrids::SpilledBandGrids(const Band& band, std::string sidePath, const VdbWriteOptions& options)
+    : path_(std::move(sidePath)), halfFloat_(options.halfFloat) {
+    const std::vector<GridMaker> makers = ownGridMakers(band);
+    names_ = writeGridsStreaming(makers, path_, openvdb::MetaMap(), options);
+}
+
+SpilledBandGrids::~SpilledBandGrids() { std::remove(path_.c_str()); }
+
+double spillableChannelBytes(const Band& band) {
+    return double(band.mean.capacity() * sizeof(float) + band.stddev.capacity() * sizeof(float) +
+                  band.T.capacity() * sizeof(band.T[0]) + band.normal.capacity() * sizeof(openvdb::Vec3f));
+}
+
+void releaseSpilledChannels(Band& band) {
+    std::vector<float>().swap(band.mean);
+    std::vector<float>().swap(band.stddev);
+    std::vector<std::array<float, 6>>().swap(band.T);
+    std::vector<openvdb::Vec3f>().swap(band.normal);
+}
+
+void writeBandVdb(const Band& band, const SpilledBandGrids& spilled, const std::string& path,
+                  const openvdb::MetaMap& metadata, const std::vector<NamedChannel>& extra,
+                  const std::vector<NamedVectorChannel>& vectors, const VdbWriteOptions& options) {
+    if (spilled.halfFloat() != options.halfFloat)
+        throw Error("the band's grids were spilled with another half-float setting than the file is written with");
+    openvdb::initialize();
+    std::vector<GridMaker> makers = channelGridMakers(band, extra, vectors);
+    auto side = std::make_shared<openvdb::io::File>(spilled.path());
+    try {
+        side->open(/*delayLoad=*/false);
+    } catch (const openvdb::Exception& e) {
+        throw OutputError(spilled.path() + ": cannot read the band's spilled grids back: " + e.what());
+    }
+    std::vector<GridMaker> own;
+    for (const std::string& name : spilled.names()) own.push_back([side, name] { return side->readGrid(name); });
+    makers.insert(makers.begin(), own.begin(), own.end());
     if (options.sellingStencils) {
         std::vector<GridMaker> selling = sellingGridMakers(band);
         makers.insert(makers.end(), selling.begin(), selling.end());

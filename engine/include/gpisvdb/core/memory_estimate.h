@@ -70,6 +70,14 @@ double multigridBytes(std::size_t n);
 /// The multigrid's peak per unknown (above), measured.
 extern const double kMultigridBytesPerVoxel;
 
+/// Peak bytes the aggregation multigrid (solve/aggregation_multigrid.h) adds for n band voxels while it is set up
+/// and kept: aggregates, coarse operators (its set-up holds the first coarse level twice), smoother and cycle
+/// vectors; measured per voxel on bunny bands (kAggregationBytesPerVoxel, docs/memory.md).
+double aggregationBytes(std::size_t n);
+
+/// The aggregation multigrid's peak per band voxel (above), measured.
+extern const double kAggregationBytesPerVoxel;
+
 /// Peak bytes the incomplete Cholesky preconditioner (solve/pcg.h) adds for n unknowns of the band Laplacian while
 /// it is set up and kept: the assembled L (float CSR), Eigen's column-major copy, its permuted lower triangle,
 /// AMD ordering and column lists, and the factor; measured per voxel on bunny bands

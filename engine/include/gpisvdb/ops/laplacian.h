@@ -5,6 +5,7 @@
 // diagonal only (u = 0 outside: homogeneous Dirichlet). M = h³ diag(μ), so uᵀ M v → ∫ u v dμ; Δ_φ = −M⁻¹ L.
 // Two forms of L: matrix-free over the band's stencils (LaplacianOperator, the PCG's default) and assembled in
 // compressed rows of float values (assembleLaplacian, for factorisations and cross-checks).
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -63,6 +64,10 @@ public:
     using SymmetricOperator::apply;
     /// Bytes held by the operator itself (neighbour indices, accumulator, schedule), beyond the band.
     std::size_t memoryBytes() const;
+    const Band& band() const { return band_; }
+    /// Each voxel's stencil neighbours: voxel i, term k, sign s (+e_k, −e_k) at [12 i + 2 k + s], the linear index
+    /// or −1 outside the band (or beyond the voxel's term count). The edge it names carries h λ_k(i)/2.
+    const std::int32_t* neighbours() const;
 
 private:
     struct Schedule;

@@ -51,9 +51,46 @@ openvdb::GridPtrVec sellingGrids(const Band& band);
 void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
               const VdbWriteOptions& options = {});
 
-/// bandGrids (and sellingGrids when options.sellingStencils), then writeVdb.
+/// bandGrids (and sellingGrids when options.sellingStencils), then writeVdb. Throws Error when the band's channels
+/// were released by releaseSpilledChannels (write it with its SpilledBandGrids instead).
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
                   const std::vector<NamedChannel>& extra = {}, const std::vector<NamedVectorChannel>& vectors = {},
                   const VdbWriteOptions& options = {});
+
+/// The band's own grids (mu … stencil_width, as bandGrids makes them) written ahead of a long stage into a side
+/// file, so that the channels only those grids read — mean, stddev, T and normal, 44 B per voxel — can be freed for
+/// the stage (releaseSpilledChannels; docs/memory.md#spill). writeBandVdb(band, spilled, …) then copies them back
+/// one at a time into the final file: the same grids, values and order as writing from memory.
+class SpilledBandGrids {
+public:
+    /// Writes the side file `sidePath` (Blosc; half floats when options.halfFloat, as the final file will have
+    /// them). Throws as writeBandVdb does; leaves no side file then.
+    SpilledBandGrids(const Band& band, std::string sidePath, const VdbWriteOptions& options = {});
+    ~SpilledBandGrids();  ///< removes the side file
+    SpilledBandGrids(const SpilledBandGrids&) = delete;
+    SpilledBandGrids& operator=(const SpilledBandGrids&) = delete;
+    const std::string& path() const { return path_; }
+    const std::vector<std::string>& names() const { return names_; }  ///< the grids it holds, in file order
+    bool halfFloat() const { return halfFloat_; }
+
+private:
+    std::string path_;
+    std::vector<std::string> names_;
+    bool halfFloat_ = false;
+};
+
+/// Bytes releaseSpilledChannels would free: the capacity of mean, stddev, T and normal.
+double spillableChannelBytes(const Band& band);
+
+/// Frees mean, stddev, T and normal (their grids are in a SpilledBandGrids): what a Green's function solve and the
+/// writer of a spilled band no longer read. μ, the stencils, the coordinates and the index stay.
+void releaseSpilledChannels(Band& band);
+
+/// writeBandVdb for a band whose own grids were spilled: those copied from `spilled`'s side file, one at a time,
+/// then `extra`, `vectors` and (options.sellingStencils) the Selling grids from memory. Throws Error when `spilled`
+/// was written with another options.halfFloat.
+void writeBandVdb(const Band& band, const SpilledBandGrids& spilled, const std::string& path,
+                  const openvdb::MetaMap& metadata, const std::vector<NamedChannel>& extra = {},
+                  const std::vector<NamedVectorChannel>& vectors = {}, const VdbWriteOptions& options = {});
 
 }  // namespace gpisvdb

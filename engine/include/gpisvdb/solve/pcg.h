@@ -20,18 +20,23 @@
 
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/ops/linear_operator.h"
+#include "gpisvdb/solve/aggregation_multigrid.h"
 #include "gpisvdb/solve/boomer_amg.h"
 
 namespace gpisvdb {
 
 enum class Preconditioner {
-    Automatic,           ///< Multigrid for an assemblable operator of ≥ kMultigridMinUnknowns unknowns, else Jacobi
+    Automatic,           ///< from kMultigridMinUnknowns unknowns: Aggregation for the band Laplacian, Multigrid
+                         ///< for another assemblable operator; Jacobi below or otherwise
     Jacobi,              ///< diag(A)⁻¹: parallel, no set-up, works matrix-free
     IncompleteCholesky,  ///< Eigen's IC(0) with AMD ordering and diagonal shift on the assembled matrix: fewer
                          ///< iterations, serial set-up and triangular solves
     Multigrid,           ///< one V-cycle of hypre's BoomerAMG (solve/boomer_amg.h) on the operator's matrix
                          ///< (assembled for the set-up and then freed): iterations nearly flat in N; serial
                          ///< set-up and cycles; ≈ 300 B per unknown more than Jacobi
+    Aggregation,         ///< one V-cycle of the aggregation multigrid (solve/aggregation_multigrid.h) on the band
+                         ///< Laplacian (LaplacianOperator only): float, parallel, ≈ 30–50 B per unknown; more
+                         ///< iterations than Multigrid, for bands whose hypre hierarchy does not fit in memory
 };
 
 /// Below this many unknowns Jacobi reaches 1e-6 sooner than the multigrid's set-up and cycles (measured on bunny
@@ -39,8 +44,10 @@ enum class Preconditioner {
 constexpr std::size_t kMultigridMinUnknowns = 100000;
 
 /// The preconditioner Automatic resolves to for an operator of `unknowns` unknowns that can or cannot be assembled
-/// (the others resolve to themselves): known before the operator is built, for memory estimates.
-Preconditioner resolvePreconditioner(Preconditioner requested, std::size_t unknowns, bool assemblable);
+/// and is or is not the band's LaplacianOperator (the others resolve to themselves): known before the operator is
+/// built, for memory estimates.
+Preconditioner resolvePreconditioner(Preconditioner requested, std::size_t unknowns, bool assemblable,
+                                     bool bandLaplacian = false);
 /// The same for this operator.
 Preconditioner resolvePreconditioner(Preconditioner requested, const SymmetricOperator& A);
 
@@ -63,6 +70,7 @@ struct PcgOptions {
     Preconditioner preconditioner = Preconditioner::Automatic;  ///< measured choice (docs/operators.md#multigrid)
     Refinement refinement = Refinement::Automatic;  ///< when to refine in double (above)
     BoomerAmgOptions multigrid = {};  ///< the hierarchy, when preconditioner is Multigrid
+    AggregationOptions aggregation = {};  ///< the hierarchy, when preconditioner is Aggregation
 };
 
 struct PcgResult {
@@ -78,8 +86,8 @@ struct PcgResult {
     double floatResidual = 0;
     bool converged = false;       ///< relativeResidual ≤ tolerance
     Preconditioner preconditioner = Preconditioner::Jacobi;  ///< the one used (Automatic resolved)
-    int multigridLevels = 0;            ///< Multigrid: levels of the hierarchy (0 otherwise)
-    double multigridComplexity = 0;     ///< Multigrid: Σ nonzeros of all levels / nonzeros of A (0 otherwise)
+    int multigridLevels = 0;            ///< Multigrid, Aggregation: levels of the hierarchy (0 otherwise)
+    double multigridComplexity = 0;     ///< Multigrid, Aggregation: Σ entries of all levels / entries of A (0 otherwise)
 };
 
 /// "Jacobi", "incomplete Cholesky", "multigrid" or "automatic" (for reports and messages).
@@ -104,6 +112,8 @@ public:
     Preconditioner preconditioner() const;
     /// The multigrid hierarchy (levels, complexity) when the preconditioner is Multigrid, else nullptr.
     const BoomerAmg* multigrid() const;
+    /// The aggregation hierarchy when the preconditioner is Aggregation, else nullptr.
+    const AggregationMultigrid* aggregation() const;
 
 private:
     struct Impl;
