@@ -76,10 +76,13 @@ TEST_CASE("aggregation multigrid: every coarse operator is Galerkin's Pᵀ A P",
     }
 }
 
-TEST_CASE("aggregation multigrid: the cycle is a symmetric positive definite operator", "[aggregation]") {
+TEST_CASE("aggregation multigrid: the V-cycle is a symmetric positive definite operator, the K-cycle positive", "[aggregation]") {
     const Band& band = test::torusGapBand();
     const LaplacianOperator L(band);
-    const AggregationMultigrid mg(L);
+    AggregationOptions vCycle;
+    vCycle.kCycle = false;
+    const AggregationMultigrid mg(L, vCycle);
+    CHECK(mg.linear());
     const std::vector<float> r1 = randomVector(band.size(), 1), r2 = randomVector(band.size(), 2);
     std::vector<float> z1(band.size()), z2(band.size());
     mg.apply(r1.data(), z1.data());
@@ -88,6 +91,12 @@ TEST_CASE("aggregation multigrid: the cycle is a symmetric positive definite ope
     CHECK(dot(r2, z1) == Approx(dot(r1, z2)).epsilon(1e-4));
     CHECK(dot(r1, z1) > 0);
     CHECK(dot(r2, z2) > 0);
+    // The K-cycle's coarse levels take flexible-CG steps: not linear (the PCG switches to the flexible β), but
+    // still a descent direction for any residual.
+    const AggregationMultigrid k(L);
+    CHECK_FALSE(k.linear());
+    k.apply(r1.data(), z1.data());
+    CHECK(dot(r1, z1) > 0);
 }
 
 TEST_CASE("aggregation multigrid: PCG reaches the direct solution with a fraction of Jacobi's iterations", "[aggregation]") {

@@ -87,10 +87,10 @@ const double kMultigridBytesPerVoxel = 440;
 double multigridBytes(std::size_t n) { return kMultigridBytesPerVoxel * double(n); }
 
 // Measured: the green stage's peak with --preconditioner aggregation over its baseline, less the operator, the PCG
-// and the right-hand side counted above, 31 bytes per voxel on the bunny (σ_rel 1, h 0.05: 1.3 M voxels;
-// docs/memory.md#aggregation): the set-up's aggregates, first coarse level and its transposed edges, before the PCG
-// allocates its vectors (it holds ≈ 34 B per voxel once set up).
-const double kAggregationBytesPerVoxel = 32;
+// and the right-hand side counted above, 33 bytes per voxel on the bunny at σ_rel 1 (h 0.05: 1.3 M voxels, ≈ 7
+// voxels per aggregate) and 52 at σ_rel 0.25 (h 0.0239: 2.4 M voxels, a thinner band: ≈ 4 per aggregate);
+// docs/memory.md#aggregation. The middle keeps both stages within ±6 %.
+const double kAggregationBytesPerVoxel = 40;
 
 double aggregationBytes(std::size_t n) { return kAggregationBytesPerVoxel * double(n); }
 

@@ -8,6 +8,8 @@
 #include <Eigen/Dense>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/partitioner.h>
 #include <tbb/parallel_sort.h>
 #include <utility>
 #include <vector>
@@ -21,6 +23,18 @@ namespace {
 
 constexpr std::size_t kGrain = 2048;
 constexpr std::size_t kMaxDenseUnknowns = 4096;  // the coarsest level's dense factor: 128 MB at most
+constexpr double kKCycleRatio = 0.25;  // the K-cycle's second step only while the first left more residual (Notay)
+
+/// Σ a_i b_i in double; the deterministic reduction splits the same way for any thread count.
+double dot(const float* a, const float* b, std::size_t n) {
+    return tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<std::size_t>(0, n, kGrain), 0.0,
+        [&](const tbb::blocked_range<std::size_t>& r, double s) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) s += double(a[i]) * double(b[i]);
+            return s;
+        },
+        [](double x, double y) { return x + y; }, tbb::simple_partitioner());
+}
 
 template <class F>
 void forEach(std::size_t n, std::size_t grain, const F& f) {
@@ -132,9 +146,13 @@ struct CoarseLevel {
     std::vector<double> boundary;       // set-up only: the weights of edges that leave the band
     std::vector<openvdb::Coord> coord;  // set-up only: the node's block, in units of this level's spacing
     mutable std::vector<float> r, x, t; // the cycle's right-hand side, iterate and residual
+    mutable std::vector<float> v1, w1, v2, w2, rt;  // the K-cycle's two flexible-CG steps (kCycle)
     std::size_t size() const { return diag.size(); }
     std::size_t bytes() const {
-        return fromFiner.bytes() + edges.bytes() + (diag.capacity() + invDiag.capacity() + r.capacity() + x.capacity() + t.capacity()) * sizeof(float);
+        return fromFiner.bytes() + edges.bytes() +
+               (diag.capacity() + invDiag.capacity() + r.capacity() + x.capacity() + t.capacity() + v1.capacity() +
+                w1.capacity() + v2.capacity() + w2.capacity() + rt.capacity()) *
+                   sizeof(float);
     }
     /// out = A u, each row summed in double in a fixed order.
     void apply(const float* u, float* out) const {
@@ -172,12 +190,13 @@ struct AggregationMultigrid::Impl {
                 throw Error("aggregation multigrid: " + std::to_string(levels.back().size()) + " nodes left after " +
                             std::to_string(levels.size()) + " levels (AggregationOptions::maxLevels), too many for the "
                             "dense coarsest solve: raise maxLevels or use the Jacobi preconditioner");
-            for (CoarseLevel& level : levels) {
+            for (std::size_t c = 0; c < levels.size(); ++c) {
+                CoarseLevel& level = levels[c];
                 std::vector<double>().swap(level.boundary);
                 std::vector<openvdb::Coord>().swap(level.coord);
-                level.r.resize(level.size());
-                level.x.resize(level.size());
-                level.t.resize(level.size());
+                for (auto* v : {&level.r, &level.x, &level.t}) v->resize(level.size());
+                if (options.kCycle && c + 1 < levels.size())  // the coarsest is solved exactly
+                    for (auto* v : {&level.v1, &level.w1, &level.v2, &level.w2, &level.rt}) v->resize(level.size());
             }
         }
         t.resize(n);
@@ -346,7 +365,42 @@ struct AggregationMultigrid::Impl {
         for (long i = 0; i < m; ++i) x[i] = float(y[i]);
     }
 
-    /// x ≈ A_l⁻¹ r by one V-cycle from x = 0 on level l (0: L, matrix-free).
+    /// c.x ≈ A_c⁻¹ c.r on coarse level c (≥ 1, not the coarsest) by two flexible-CG steps preconditioned by its cycle
+    /// (Notay & Vassilevski 2008, the K-cycle): the second step is skipped when the first leaves ≤ kKCycleRatio of
+    /// the residual.
+    void kCycle(std::size_t c, const CoarseLevel& lv) const {
+        const std::size_t m = lv.size();
+        const float* r = lv.r.data();
+        // === First step: v1 = B r, along v1
+        cycle(c, r, lv.v1.data());
+        lv.apply(lv.v1.data(), lv.w1.data());
+        const double rho1 = dot(lv.v1.data(), lv.w1.data(), m), alpha1 = dot(lv.v1.data(), r, m);
+        if (!(rho1 > 0)) {  // r = 0 (or rounding at its level): no correction
+            std::fill(lv.x.begin(), lv.x.end(), 0.0f);
+            return;
+        }
+        const double a1 = alpha1 / rho1;
+        forEach(m, kGrain, [&](std::size_t i) { lv.rt[i] = float(double(r[i]) - a1 * double(lv.w1[i])); });
+        const double rr = dot(r, r, m), rtrt = dot(lv.rt.data(), lv.rt.data(), m);
+        if (rtrt <= kKCycleRatio * kKCycleRatio * rr) {
+            forEach(m, kGrain, [&](std::size_t i) { lv.x[i] = float(a1 * double(lv.v1[i])); });
+            return;
+        }
+        // === Second step: v2 = B r̃, A-orthogonalised against v1
+        cycle(c, lv.rt.data(), lv.v2.data());
+        lv.apply(lv.v2.data(), lv.w2.data());
+        const double gamma = dot(lv.v2.data(), lv.w1.data(), m), beta = dot(lv.v2.data(), lv.w2.data(), m),
+                     alpha2 = dot(lv.v2.data(), lv.rt.data(), m);
+        const double rho2 = beta - gamma * gamma / rho1;
+        if (!(rho2 > 0)) {
+            forEach(m, kGrain, [&](std::size_t i) { lv.x[i] = float(a1 * double(lv.v1[i])); });
+            return;
+        }
+        const double c1 = a1 - gamma * alpha2 / (rho1 * rho2), c2 = alpha2 / rho2;
+        forEach(m, kGrain, [&](std::size_t i) { lv.x[i] = float(c1 * double(lv.v1[i]) + c2 * double(lv.v2[i])); });
+    }
+
+    /// x ≈ A_l⁻¹ r by one cycle from x = 0 on level l (0: L, matrix-free).
     void cycle(std::size_t l, const float* r, float* x) const {
         if (l == levels.size()) {
             solveCoarsest(r, x);
@@ -383,7 +437,8 @@ struct AggregationMultigrid::Impl {
             for (std::uint32_t m = agg.start[K]; m != agg.start[K + 1]; ++m) s += double(res[std::size_t(agg.member[m])]);
             coarse.r[K] = float(s);
         });
-        cycle(l + 1, coarse.r.data(), coarse.x.data());
+        if (options.kCycle && l + 1 < levels.size()) kCycle(l + 1, coarse);
+        else cycle(l + 1, coarse.r.data(), coarse.x.data());
         const float alpha = float(options.coarseCorrectionWeight);
         forEach(coarse.size(), kGrain, [&](std::size_t K) {
             for (std::uint32_t m = agg.start[K]; m != agg.start[K + 1]; ++m) x[std::size_t(agg.member[m])] += alpha * coarse.x[K];
@@ -412,6 +467,8 @@ AggregationMultigrid::~AggregationMultigrid() = default;
 void AggregationMultigrid::apply(const float* r, float* z) const { impl_->cycle(0, r, z); }
 
 int AggregationMultigrid::levels() const { return int(impl_->levels.size()) + 1; }
+
+bool AggregationMultigrid::linear() const { return !impl_->options.kCycle || impl_->levels.size() < 2; }
 
 double AggregationMultigrid::operatorComplexity() const {
     double entries = double(impl_->fineEntries);

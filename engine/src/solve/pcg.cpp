@@ -127,6 +127,7 @@ struct PcgSolver::Impl {
     PcgResult pcg(const float* b, float* x, double bNorm, double tolerance, int maxIterations, double scaleToCaller,
                   double target, const Progress& progress) const {
         PcgResult res;
+        const bool flexible = aggregation && !aggregation->linear();
         // === r = b − A x, z = P⁻¹ r, p = z (also a restart, from the true residual)
         double rz = 0;
         auto restart = [&] {
@@ -155,9 +156,12 @@ struct PcgSolver::Impl {
                     x[i] = float(double(x[i]) + alpha * double(p[i]));
                     r[i] = float(double(r[i]) - alpha * double(Ap[i]));
                 });
+                // Flexible (Polak–Ribière) β for a preconditioner that is not linear (the aggregation K-cycle):
+                // subtracts r_{k+1}ᵀ z_k, which is 0 in exact arithmetic for a fixed SPD preconditioner.
+                const double rzOld = flexible ? dot(r.data(), z.data(), n) : 0.0;
                 precondition();
                 const double rzNext = dot(r.data(), z.data(), n);
-                const double beta = rzNext / rz;
+                const double beta = (rzNext - rzOld) / rz;
                 rz = rzNext;
                 forEach(n, [&](std::size_t i) { p[i] = float(double(z[i]) + beta * double(p[i])); });
                 ++res.iterations;

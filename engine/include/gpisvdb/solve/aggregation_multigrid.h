@@ -1,7 +1,7 @@
 #pragma once
-// Aggregation multigrid for the band Laplacian (docs/operators.md#aggregation): the preconditioner for bands too
-// large for hypre's BoomerAMG (≈ 440 B per voxel beside the operator). It holds ≈ 30–50 B per band voxel, in float,
-// and its cycles run on every thread.
+// Aggregation multigrid for the band Laplacian (docs/operators.md#aggregation): the default preconditioner of the
+// band's Green's function from 1e5 voxels, light enough for 1e8 voxels where hypre's BoomerAMG (≈ 440 B per voxel
+// beside the operator) is not. It holds ≈ 35–55 B per band voxel, in float, and its cycles run on every thread.
 //
 // Each level groups the previous level's nodes in 2×2×2 blocks of its lattice (band voxels, then blocks of 2, 4, …
 // voxels): P is piecewise constant on these aggregates and the coarse operator is Galerkin's Pᵀ A P. L is a graph
@@ -10,11 +10,12 @@
 // drop out, and nothing needs assembling at the finest level (the matrix-free L is used there). The coarsest level,
 // ≤ AggregationOptions::coarsestUnknowns nodes, is solved exactly (dense Cholesky).
 //
-// The cycle is a symmetric V-cycle: ν damped-Jacobi sweeps before and after each coarse correction (the same ν and
-// weight: the post-smoother is the pre-smoother's adjoint) and the coarse correction weighted by α (options), so it
-// is a fixed symmetric positive definite operator
-// and the PCG stays a conjugate-gradient method. Sums in double, each output rounded once; deterministic for any
-// thread count.
+// Each level's cycle: ν damped-Jacobi sweeps before and after the coarse correction (the same ν and weight: the
+// post-smoother is the pre-smoother's adjoint), the correction weighted by α. With AggregationOptions::kCycle (the
+// default) each coarse level but the coarsest is solved by two flexible-CG steps preconditioned by its own cycle
+// (the K-cycle), which keeps the iterations nearly flat as levels are added; the preconditioner is then not linear
+// and the PCG uses the flexible β. Without it, a V-cycle: a fixed symmetric positive definite operator. Sums in
+// double, each output rounded once; deterministic for any thread count.
 #include <cstddef>
 #include <memory>
 #include <vector>
@@ -32,6 +33,11 @@ struct AggregationOptions {
     /// (its coarse operator overestimates their energy); α = 1.3 measured best on bunny bands (15–25 % fewer
     /// iterations than 1). Any α < 2 keeps the cycle positive definite: the corrected error's A-norm stays ≤ 1.
     double coarseCorrectionWeight = 1.3;
+    /// Each coarse level but the coarsest solved by two flexible-CG steps preconditioned by its own cycle (the
+    /// K-cycle of Notay & Vassilevski 2008) instead of one cycle: iterations nearly independent of the levels'
+    /// count, for ≈ 2× a V-cycle's coarse work. The preconditioner is then not linear: the PCG uses the flexible
+    /// (Polak–Ribière) β. false: a plain V-cycle, a fixed symmetric positive definite operator.
+    bool kCycle = true;
     std::size_t coarsestUnknowns = 512;  ///< a level with at most this many nodes (≤ 4096) is solved by dense Cholesky
     int maxLevels = 24;                  ///< levels at most, the finest included (≥ 2)
     /// Set-up memory: the first coarse level's transposed edges are formed this many at a time (8 B each; ≥ 1).
@@ -49,9 +55,10 @@ public:
     AggregationMultigrid(const AggregationMultigrid&) = delete;
     AggregationMultigrid& operator=(const AggregationMultigrid&) = delete;
 
-    /// z = B r, B ≈ L⁻¹ one V-cycle from z = 0 (r and z of length N, not aliased).
+    /// z = B r, B ≈ L⁻¹ one cycle from z = 0 (r and z of length N, not aliased).
     void apply(const float* r, float* z) const;
     int levels() const;                 ///< levels, the finest (L itself) included
+    bool linear() const;                ///< false with the K-cycle: the PCG must use the flexible β
     double operatorComplexity() const;  ///< Σ stored entries of the coarse levels / L's stencil entries, plus 1
     std::size_t memoryBytes() const;    ///< bytes held: the coarse operators, aggregates, smoother and cycle vectors
     std::size_t coarseUnknowns(int level) const;  ///< nodes of level ≥ 1 (0 beyond the coarsest)

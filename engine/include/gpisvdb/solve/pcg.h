@@ -34,9 +34,9 @@ enum class Preconditioner {
     Multigrid,           ///< one V-cycle of hypre's BoomerAMG (solve/boomer_amg.h) on the operator's matrix
                          ///< (assembled for the set-up and then freed): iterations nearly flat in N; serial
                          ///< set-up and cycles; ≈ 300 B per unknown more than Jacobi
-    Aggregation,         ///< one V-cycle of the aggregation multigrid (solve/aggregation_multigrid.h) on the band
-                         ///< Laplacian (LaplacianOperator only): float, parallel, ≈ 30–50 B per unknown; more
-                         ///< iterations than Multigrid, for bands whose hypre hierarchy does not fit in memory
+    Aggregation,         ///< one K-cycle of the aggregation multigrid (solve/aggregation_multigrid.h) on the band
+                         ///< Laplacian (LaplacianOperator only): float, parallel, ≈ 35–55 B per unknown; the PCG
+                         ///< then uses the flexible β (the K-cycle is not linear)
 };
 
 /// Below this many unknowns Jacobi reaches 1e-6 sooner than the multigrid's set-up and cycles (measured on bunny
