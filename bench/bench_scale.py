@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Large runs on one machine (issue 18): the bunny's band at σ_rel 1 on a ladder of voxel sizes (≈ 1 M, 13 M and
 110 M band voxels), each through `gpisvdb geodesic` (band, .vdb, fast marching, a shortest path) and, up to
---green-max-voxels, `gpisvdb green` (band, .vdb, the multigrid-preconditioned Green's function). Records each
+--green-max-voxels, `gpisvdb green` (band, .vdb, the Green's function with the default preconditioner: hypre's
+multigrid when scale.json was last written, the aggregation multigrid since). Records each
 command's stage times, peak resident set, memory estimates and file size in bench/results/scale.json and draws
 docs/images/bench_scale.png.
 
 Usage: bench/bench_scale.py [--voxel-sizes 0.05,0.0235,0.0115] [--green-max-voxels 2e7] [--max-memory 21G]
            [--binary build/bin/gpisvdb] [--out bench/results/scale.json] [--work DIR] [--plot-only]
-The 110 M-voxel step needs ≈ 19.5 GB of memory, ≈ 5 GB of disk and ≈ 11 minutes on 2 cores.
+The 110 M-voxel step needs ≈ 19.5 GB of memory, ≈ 5 GB of disk and ≈ 11 minutes on 2 cores; a Green's function at
+that size (--green-max-voxels 2e8) another ≈ 12 minutes and ≈ 18.5 GB (bench/results/scale_green_1e8.json).
 """
 import argparse
 import json

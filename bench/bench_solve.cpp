@@ -2,8 +2,8 @@
 // against Eigen's ConjugateGradient and OpenVDB's math::pcg::solve on the same system and tolerance, operator
 // applications per second, Jacobi against incomplete Cholesky, bytes per band voxel; tolerances below float's
 // reach: the float PCG alone against mixed-precision iterative refinement (issue 18 item 4); the multigrid
-// preconditioner against Jacobi on nested bands (issue 18 item 3).
-// Usage: bench_solve [--part table|solvers|tolerance|multigrid|all] [--out bench/results/solve.json] [--data DIR]
+// preconditioners against Jacobi on nested bands (issue 18 item 3); OpenVDB's tools::poisson on the same voxels.
+// Usage: bench_solve [--part table|solvers|tolerance|multigrid|poisson|all] [--out bench/results/solve.json] [--data DIR]
 //                    [--repeat R] [--sigmas 0.25,0.5,1] [--scales 2,1,0.5] [--amg θ,entries,aggressive-levels]
 #include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
@@ -12,6 +12,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <openvdb/math/ConjGradient.h>
+#include <openvdb/tools/PoissonSolver.h>
 #include <tbb/global_control.h>
 
 #include "gpisvdb/band/build_band.h"
@@ -314,6 +315,77 @@ nlohmann::json multigridRow(const Problem& p, double tolerance) {
     return row;
 }
 
+/// The reference of issue 18: OpenVDB's own Jacobi-preconditioned CG (tools::poisson::solve, the 7-point Laplacian
+/// with homogeneous Dirichlet conditions) on an isotropic band of the same voxels, against our PCG — Jacobi and the
+/// aggregation multigrid — on the same voxels with T = I (our stencil then is the same 7-point Laplacian, times h),
+/// and on the GPIS band itself. The right-hand side: a unit source at the voxel nearest the source point.
+nlohmann::json poissonRow(const Problem& p, double tolerance) {
+    const Band& gpis = p.band;
+    const std::size_t n = gpis.size();
+    const std::size_t y = nearestBandVoxel(gpis, p.source);
+    nlohmann::json row = {{"input", p.name}, {"sigma_rel", p.sigma}, {"h", gpis.voxelSize}, {"voxels", n}};
+    std::vector<BandVoxel> voxels(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        voxels[i].coord = gpis.coord[i];
+        voxels[i].mu = 1.0;
+        voxels[i].T = Mat3d::Identity();
+    }
+    const Band iso = bandFromVoxels(std::move(voxels), gpis.voxelSize, 1.0).band;
+    // === OpenVDB: the band's voxels as the active set, −e_y as ∇²x = b's right-hand side (its matrix is −L/h, so
+    // A x = e_y). Its stopping test is on the residual's largest entry (‖r‖∞/‖b‖∞), ours on ‖r‖₂/‖b‖₂, so its
+    // solution is also mapped to ours (u = x/h) and ‖e_y − L u‖₂ reported (docs/benchmarks.md#poisson).
+    {
+        const LaplacianOperator Liso(iso);
+        openvdb::FloatTree source(0.0f);
+        for (std::size_t i = 0; i < n; ++i) source.setValueOn(gpis.coord[i], i == y ? -1.0f : 0.0f);
+        auto l2Residual = [&](const openvdb::FloatTree& x) {
+            std::vector<double> u(n), Lu(n);
+            for (std::size_t i = 0; i < n; ++i) u[iso.index->tree().getValue(gpis.coord[i])] = double(x.getValue(gpis.coord[i])) / iso.voxelSize;
+            Liso.apply(u.data(), Lu.data());
+            double s = 0;
+            const std::size_t yi = std::size_t(iso.index->tree().getValue(gpis.coord[y]));
+            for (std::size_t i = 0; i < n; ++i) s += std::pow((i == yi ? 1.0 : 0.0) - Lu[i], 2);
+            return std::sqrt(s);
+        };
+        openvdb::math::pcg::State state = openvdb::math::pcg::terminationDefaults<float>();
+        state.iterations = 100000;
+        state.relativeError = tolerance;
+        state.absoluteError = 0;
+        openvdb::math::pcg::State result;
+        openvdb::FloatTree::Ptr x;
+        const double s = median([&] {
+            openvdb::util::NullInterrupter interrupter;
+            result = state;
+            x = openvdb::tools::poisson::solve(source, result, interrupter);
+        });
+        const double l2 = l2Residual(*x);
+        row["openvdb_poisson_jacobi"] = {{"iterations", result.iterations}, {"relative_error_inf", result.relativeError},
+                                         {"relative_residual_of_its_solution", l2}, {"success", result.success},
+                                         {"total_s", s}};
+    }
+    // === Ours on the same voxels with T = I, then on the GPIS band
+    for (const auto& [name, band] : {std::pair<const char*, const Band*>{"isotropic", &iso}, {"gpis", &gpis}}) {
+        std::vector<float> b(n, 0.0f);
+        b[nearestBandVoxel(*band, p.source)] = 1.0f;
+        for (const Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::Aggregation}) {
+            PcgOptions o;
+            o.tolerance = tolerance;
+            o.maxIterations = 100000;
+            o.preconditioner = pc;
+            std::vector<float> x;
+            PcgResult r;
+            const double s = median([&] {
+                const LaplacianOperator L(*band);
+                x.assign(n, 0.0f);
+                r = solvePcg(L, b, x, o);
+            });
+            row[std::string(name) + "_" + (pc == Preconditioner::Jacobi ? "jacobi" : "aggregation")] = {
+                {"iterations", r.iterations}, {"relative_residual", r.relativeResidual}, {"total_s", s}};
+        }
+    }
+    return row;
+}
+
 std::vector<double> parseList(const std::string& s) {
     std::vector<double> v;
     std::size_t i = 0;
@@ -350,12 +422,12 @@ int main(int argc, char** argv) {
             gAmg.aggressiveLevels = int(v[2]);
         }
         else {
-            std::cerr << "usage: bench_solve [--part table|solvers|tolerance|multigrid|all] [--out FILE.json] [--data DIR] "
+            std::cerr << "usage: bench_solve [--part table|solvers|tolerance|multigrid|poisson|all] [--out FILE.json] [--data DIR] "
                          "[--repeat R] [--sigmas S,...] [--scales C,...] [--amg θ,entries,aggressive]\n";
             return 2;
         }
     }
-    if (part != "table" && part != "solvers" && part != "tolerance" && part != "multigrid" && part != "all") {
+    if (part != "table" && part != "solvers" && part != "tolerance" && part != "multigrid" && part != "poisson" && part != "all") {
         std::cerr << "bench_solve: unknown --part '" << part << "'\n";
         return 2;
     }
@@ -391,6 +463,15 @@ int main(int argc, char** argv) {
             const nlohmann::json row = tolerances(p);
             std::cout << row["voxels"] << " voxels done" << std::endl;
             report["tolerances"].push_back(row);
+        }
+    }
+    if (part == "poisson" || part == "all") {
+        report["poisson"] = nlohmann::json::array();
+        for (double hScale : {2.0, 1.0, 0.5}) {
+            const Problem p = bunnyBand(data, 1.0, hScale);
+            const nlohmann::json row = poissonRow(p, 1e-6);
+            std::cout << row.dump() << std::endl;
+            report["poisson"].push_back(row);
         }
     }
     if (part == "multigrid" || part == "all") {
