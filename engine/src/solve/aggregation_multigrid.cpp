@@ -8,13 +8,12 @@
 #include <Eigen/Dense>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-#include <tbb/partitioner.h>
 #include <tbb/parallel_sort.h>
 #include <utility>
 #include <vector>
 
 #include "../band/stencil_neighbours.h"
+#include "deterministic_dot.h"
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb {
@@ -25,16 +24,7 @@ constexpr std::size_t kGrain = 2048;
 constexpr std::size_t kMaxDenseUnknowns = 4096;  // the coarsest level's dense factor: 128 MB at most
 constexpr double kKCycleRatio = 0.25;  // the K-cycle's second step only while the first left more residual (Notay)
 
-/// Σ a_i b_i in double; the deterministic reduction splits the same way for any thread count.
-double dot(const float* a, const float* b, std::size_t n) {
-    return tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<std::size_t>(0, n, kGrain), 0.0,
-        [&](const tbb::blocked_range<std::size_t>& r, double s) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) s += double(a[i]) * double(b[i]);
-            return s;
-        },
-        [](double x, double y) { return x + y; }, tbb::simple_partitioner());
-}
+double dot(const float* a, const float* b, std::size_t n) { return detail::deterministicDot(a, b, n, kGrain); }
 
 template <class F>
 void forEach(std::size_t n, std::size_t grain, const F& f) {

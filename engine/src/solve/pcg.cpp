@@ -6,9 +6,8 @@
 #include <string>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-#include <tbb/partitioner.h>
 
+#include "deterministic_dot.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/solve/boomer_amg.h"
@@ -27,16 +26,9 @@ constexpr double kInnerTolerance = 1e-5;
 constexpr double kMinOuterGain = 0.5;
 constexpr int kMaxRefinements = 30;
 
-/// Σ a_i b_i in double; the deterministic reduction splits the same way for any thread count.
 template <class T>
 double dot(const T* a, const T* b, std::size_t n) {
-    return tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<std::size_t>(0, n, kGrain), 0.0,
-        [&](const tbb::blocked_range<std::size_t>& r, double s) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) s += double(a[i]) * double(b[i]);
-            return s;
-        },
-        [](double x, double y) { return x + y; }, tbb::simple_partitioner());
+    return detail::deterministicDot(a, b, n, kGrain);
 }
 
 template <class F>
