@@ -61,12 +61,12 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     const auto tBand = Clock::now();
     DefaultBand built = buildDefaultBand(*job.model.model, job.model.input.samples, options, progress);
     job.secondsBand = since(tBand);
-    job.bandBytesPerVoxel = job.result.band.bytesPerVoxel();
     job.resolution = built.resolution;
     job.options = built.options;
     job.maxMemory = built.maxMemory;
     job.estimate = built.estimate;
     job.result = std::move(built.result);
+    job.bandBytesPerVoxel = job.result.band.bytesPerVoxel();
     job.warnings = bandWarnings(job, flags);
     if (!flags.model.quiet)
         for (const std::string& w : job.warnings) std::cerr << "warning: " << w << "\n";
@@ -117,7 +117,8 @@ void addSolverFlags(CLI::App& cmd, PcgOptions& o, SolverFlags which) {
         names.emplace("aggregation", Preconditioner::Aggregation);
     }
     cmd.add_option("--preconditioner", o.preconditioner,
-                   std::string("auto (default: multigrid from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)") +
+                   std::string(distributed ? "auto (default: multigrid from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)"
+                                           : "auto (default: aggregation from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)") +
                        (distributed ? " or jacobi"
                                     : ", aggregation (memory-light multigrid, docs/operators.md#aggregation), jacobi or ic "
                                       "(incomplete Cholesky)"))

@@ -58,10 +58,17 @@ void addGreen(CLI::App& app, Action& action) {
             double stageBytes = 0;
             for (const auto& part : parts) stageBytes += part.second;
             const double held = settledResidentBytes(), freed = spillableChannelBytes(band);
+            const bool fitsSpilled = held - freed + stageBytes <= job.maxMemory;
             std::unique_ptr<SpilledBandGrids> spilled;
-            if (a->spill == Spill::Always || (a->spill == Spill::Automatic && held + stageBytes > job.maxMemory &&
-                                              held - freed + stageBytes <= job.maxMemory)) {
-                spilled = std::make_unique<SpilledBandGrids>(band, run.out->tempPath() + ".grids", a->flags.vdb);
+            if (!fitsSpilled) {
+                estimateStage(job, "Green's function solve", parts);  // refused as it stands, before any file is written
+            } else if (a->spill == Spill::Always || (a->spill == Spill::Automatic && held + stageBytes > job.maxMemory)) {
+                try {
+                    spilled = std::make_unique<SpilledBandGrids>(band, run.out->tempPath() + ".grids", a->flags.vdb);
+                } catch (const OutputError& e) {
+                    throw OutputError(std::string(e.what()) + " (the band's grids spilled before the solve; --spill never "
+                                                              "keeps them in memory instead)");
+                }
                 releaseSpilledChannels(band);
                 if (!a->flags.model.quiet)
                     std::cerr << "green: the band's grids are written ahead to " << spilled->path() << ", freeing "

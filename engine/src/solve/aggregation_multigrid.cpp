@@ -179,7 +179,7 @@ struct AggregationMultigrid::Impl {
             if (levels.back().size() > kMaxDenseUnknowns)
                 throw Error("aggregation multigrid: " + std::to_string(levels.back().size()) + " nodes left after " +
                             std::to_string(levels.size()) + " levels (AggregationOptions::maxLevels), too many for the "
-                            "dense coarsest solve: raise maxLevels or use the Jacobi preconditioner");
+                            "dense coarsest solve: use --preconditioner multigrid or jacobi");
             for (std::size_t c = 0; c < levels.size(); ++c) {
                 CoarseLevel& level = levels[c];
                 std::vector<double>().swap(level.boundary);

@@ -148,12 +148,13 @@ struct PcgSolver::Impl {
                     x[i] = float(double(x[i]) + alpha * double(p[i]));
                     r[i] = float(double(r[i]) - alpha * double(Ap[i]));
                 });
-                // Flexible (Polak–Ribière) β for a preconditioner that is not linear (the aggregation K-cycle):
-                // subtracts r_{k+1}ᵀ z_k, which is 0 in exact arithmetic for a fixed SPD preconditioner.
-                const double rzOld = flexible ? dot(r.data(), z.data(), n) : 0.0;
                 precondition();
                 const double rzNext = dot(r.data(), z.data(), n);
-                const double beta = (rzNext - rzOld) / rz;
+                // Flexible CG (Notay 2000; Polak–Ribière) for a preconditioner that is not linear (the aggregation
+                // K-cycle): β = z_{k+1}ᵀ(r_{k+1} − r_k) / r_kᵀz_k = −α z_{k+1}ᵀA p_k / r_kᵀz_k keeps p_{k+1}
+                // A-orthogonal to p_k; for a fixed SPD preconditioner it equals the usual r_{k+1}ᵀz_{k+1} / r_kᵀz_k.
+                // A p_k is still in Ap (the K-cycle does not use it as scratch, unlike IC).
+                const double beta = flexible ? -alpha * dot(z.data(), Ap.data(), n) / rz : rzNext / rz;
                 rz = rzNext;
                 forEach(n, [&](std::size_t i) { p[i] = float(double(z[i]) + beta * double(p[i])); });
                 ++res.iterations;

@@ -35,8 +35,8 @@ struct AggregationOptions {
     double coarseCorrectionWeight = 1.3;
     /// Each coarse level but the coarsest solved by two flexible-CG steps preconditioned by its own cycle (the
     /// K-cycle of Notay & Vassilevski 2008) instead of one cycle: iterations nearly independent of the levels'
-    /// count, for ≈ 2× a V-cycle's coarse work. The preconditioner is then not linear: the PCG uses the flexible
-    /// (Polak–Ribière) β. false: a plain V-cycle, a fixed symmetric positive definite operator.
+    /// count, for ≈ 2× a V-cycle's coarse work. The preconditioner is then not linear: the PCG uses flexible CG's β
+    /// (−z_{k+1}ᵀA p_k / p_kᵀA p_k). false: a plain V-cycle, a fixed symmetric positive definite operator.
     bool kCycle = true;
     std::size_t coarsestUnknowns = 512;  ///< a level with at most this many nodes (≤ 4096) is solved by dense Cholesky
     int maxLevels = 24;                  ///< levels at most, the finest included (≥ 2)
