@@ -105,9 +105,12 @@ TEST_CASE("memory: regress refuses its posterior before the eigen stage, at a li
     const double limit = eigenStage + 0.3 * posterior;
     INFO(stages.dump());
     REQUIRE(limit < double(stages["regression"]["estimate_bytes"]));
-    checkRefused(args + " --max-memory " + bytes(limit), vdb,
-                 {"the regression (with its eigenvectors, before the eigen solver runs) needs about",
-                  "use fewer data points (--data holds 1839)"});
+    // Under a sanitizer the resident set outgrows the estimates (−8 to −10 % here), so the limit may pass the early
+    // check and be refused by the posterior's own, after the eigen stage: there only the refusal and its advice are
+    // checked.
+    std::vector<std::string> expect = {"use fewer data points (--data holds 1839)"};
+    if (gpisvdb::test::kMemoryChecked) expect.push_back("the regression (with its eigenvectors, before the eigen solver runs) needs about");
+    checkRefused(args + " --max-memory " + bytes(limit), vdb, expect);
 }
 
 TEST_CASE("memory: the sample command's estimate (the mesh at the input's points, the sampled grids, VTK's copy) is within 15 % of its stage's peak, on two sizes", "[memory][cli]") {
