@@ -117,8 +117,8 @@ void addSolverFlags(CLI::App& cmd, PcgOptions& o, SolverFlags which) {
         names.emplace("aggregation", Preconditioner::Aggregation);
     }
     cmd.add_option("--preconditioner", o.preconditioner,
-                   std::string(distributed ? "auto (default: multigrid from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)"
-                                           : "auto (default: aggregation from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)") +
+                   std::string("auto (default: ") + (distributed ? "multigrid" : "aggregation") +
+                       " from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)" +
                        (distributed ? " or jacobi"
                                     : ", aggregation (memory-light multigrid, docs/operators.md#aggregation), jacobi or ic "
                                       "(incomplete Cholesky)"))
