@@ -1,4 +1,5 @@
 #include <catch2/catch.hpp>
+#include <malloc.h>
 #include <tbb/global_control.h>
 #include <tuple>
 
@@ -138,6 +139,30 @@ TEST_CASE("band: evaluated in batches of any size, BFS and scan build the same b
     }
     o.batchVoxels = 0;
     CHECK_THROWS_AS(buildBand(*f.model, f.samples, o), ParameterError);
+}
+
+TEST_CASE("band: malloc maps large blocks again after a build, finished or refused (its heap reuse is scoped)", "[band]") {
+    // buildBand raises glibc's mmap threshold while it runs (core/heap_reuse.h); afterwards a 4 MiB block must again
+    // be mapped from the kernel (counted in mallinfo2's hblks) and go back when freed, as the engine sets it.
+    if (!test::kMemoryChecked) return;  // a sanitizer's allocator replaces malloc's
+    const auto mappedBlockAfter = [] {
+        const int before = mallinfo2().hblks;
+        std::vector<char>* block = new std::vector<char>(std::size_t(4) << 20, 1);
+        const int during = mallinfo2().hblks;
+        delete block;
+        return during - before;
+    };
+    const Fixture f = bunny(1.0);
+    BandOptions o;
+    o.voxelSize = 0.3;
+    REQUIRE(buildBand(*f.model, f.samples, o).band.size() > 0);
+    CHECK(mappedBlockAfter() == 1);
+    o.maxVoxels = 10;  // refused during the first BFS level
+    CHECK_THROWS_AS(buildBand(*f.model, f.samples, o), MemoryLimitError);
+    CHECK(mappedBlockAfter() == 1);
+    o.maxVoxels = 0;
+    REQUIRE(scanBand(*f.model, f.samples, o).band.size() > 0);
+    CHECK(mappedBlockAfter() == 1);
 }
 
 TEST_CASE("band: channels hold Kac-Rice at the voxel centres, the index tree maps back, stencils rebuild T, bytes per voxel count the containers", "[band]") {

@@ -217,3 +217,31 @@ TEST_CASE("kacrice: the SIMD sums equal the plain loop over the QMC points", "[k
     }
 }
 
+TEST_CASE("kacrice: the SIMD sums equal the plain loop at lengths scaled by 1e-6 and 1e6", "[kacrice]") {
+    // With AVX-512 the lanes take 1/‖X‖ by Newton's iteration from the exponent bits: it must hold over the whole
+    // range of doubles a scaled input reaches. Lengths × k scale ∇φ by 1/k: the gradient's mean by 1/k, its covariance
+    // with φ by 1/k and its own by 1/k²; a conditioned gradient that is exactly its mean (Σ = 0) is included.
+    std::mt19937_64 rng(7);
+    std::normal_distribution<double> n;
+    const QmcRule rule(512);
+    for (double k : {1e-6, 1e-3, 1.0, 1e3, 1e6}) {
+        for (int trial = 0; trial < 50; ++trial) {
+            Eigen::Matrix4d A;
+            for (int i = 0; i < 16; ++i) A.data()[i] = n(rng);
+            ValueGradient z;
+            z.cov = A * A.transpose();
+            if (trial == 0) z.cov.setZero(), z.cov(0, 0) = 0.1;  // Σ = 0: every point X = m
+            z.mean << 0.5 + 0.5 * n(rng), n(rng), n(rng), n(rng);
+            Eigen::Vector4d scale(1.0, 1.0 / k, 1.0 / k, 1.0 / k);
+            z.mean = z.mean.cwiseProduct(scale);
+            z.cov = scale.asDiagonal() * z.cov * scale.asDiagonal();
+            const SurfaceDensity a = kacRice(z, 0.5, rule), b = kacRiceReference(z, 0.5, rule);
+            INFO("lengths x " << k << ", trial " << trial);
+            REQUIRE(b.mu > 0);
+            REQUIRE(std::isfinite(a.mu));
+            CHECK(std::abs(a.mu - b.mu) <= 1e-12 * b.mu);
+            CHECK((a.T - b.T).norm() <= 1e-12 * b.T.norm() + 1e-15 * b.mu);
+        }
+    }
+}
+

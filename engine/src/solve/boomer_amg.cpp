@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "gpisvdb/core/errors.h"
+#include "../core/heap_reuse.h"
 
 namespace gpisvdb {
 
@@ -30,8 +31,8 @@ namespace {
 const bool kMallocRestored = [] {
 #ifdef M_MMAP_MAX
     mallopt(M_MMAP_MAX, 65536);
-    mallopt(M_MMAP_THRESHOLD, 128 * 1024);
-    mallopt(M_TRIM_THRESHOLD, 128 * 1024);
+    mallopt(M_MMAP_THRESHOLD, kMallocThresholdBytes);
+    mallopt(M_TRIM_THRESHOLD, kMallocThresholdBytes);
 #endif
     return true;
 }();

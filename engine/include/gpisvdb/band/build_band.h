@@ -21,7 +21,7 @@ struct BandOptions {
     int qmcSamples = 512;          ///< S, QMC points for μ and T (≥ 1)
     double maxAnisotropy = 20;     ///< T is regularised to √(λmax/λmin) ≤ this before Selling (≥ 1)
     std::size_t maxVoxels = 0;     ///< refuse once more voxels than this would be evaluated (0: no limit)
-    std::size_t batchVoxels = std::size_t(1) << 18;  ///< voxels evaluated together (≥ 1): bounds the build's transient
+    std::size_t batchVoxels = std::size_t(1) << 17;  ///< voxels evaluated together (≥ 1): bounds the build's transient
                                    ///< memory (≈ 330 bytes each); the band does not depend on it
 };
 
