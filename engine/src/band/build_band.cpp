@@ -6,9 +6,6 @@
 #include <cmath>
 #include <cstdint>
 #include <tbb/parallel_for.h>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 
 #include "gpisvdb/core/errors.h"
 #include "../core/heap_reuse.h"
@@ -170,11 +167,9 @@ private:
             out[i] = (blocks_[source[i] >> kBlockBits].*member)[source[i] & (kBlock - 1)];
         });
         for (Block& blk : blocks_) std::vector<V>().swap(blk.*member);
-#if defined(__GLIBC__)
         // Under ScopedHeapReuse the blocks' channels lie in malloc's heap; the next channel's array does not fit in
         // their holes, so the freed pages go back before it is made (else the peak grows by a channel's blocks).
-        malloc_trim(0);
-#endif
+        returnFreedPages();
     }
 
     double maxAnisotropy_;
