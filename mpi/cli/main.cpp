@@ -5,6 +5,7 @@
 #include <slepcsys.h>
 
 #include <csignal>
+#include <cstdlib>
 #include <iostream>
 
 #include "common.h"
@@ -65,7 +66,7 @@ int run(int argc, char** argv, const gpisvdb::mpi::Ranks& ranks) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    gpisvdb::cli::installInterruptHandler();  // before any thread starts
+    gpisvdb::cli::installInterruptHandler("gpisvdb-mpi");  // before any thread starts
     int provided = 0;
     if (MPI_Init_thread(&argc, &argv, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS) {
         std::cerr << "gpisvdb-mpi: error: MPI could not start\n";
@@ -81,6 +82,12 @@ int main(int argc, char** argv) {
     {
         const gpisvdb::mpi::Ranks ranks(MPI_COMM_WORLD);
         code = run(argc, argv, ranks);
+    }
+    if (gpisvdb::cli::interruptRequested()) {
+        // After Ctrl-C mpirun tears the job down and SIGKILLs ranks that are still alive a second later (Open MPI's
+        // odls_base_sigkill_timeout); finalizing would wait on it. The outputs are already removed: leave now.
+        std::cerr.flush();
+        std::_Exit(code);
     }
     SlepcFinalize();
     MPI_Finalize();

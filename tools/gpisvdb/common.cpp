@@ -86,7 +86,7 @@ void unregisterTemporary(const std::string& path, bool directory) {
 /// After a signal the work stops by itself within a few hundred milliseconds (the engine polls); a step that does
 /// not poll (a CHOLMOD factorization, a VTK render, a large file write) would keep the user waiting, so past the
 /// grace period this thread removes the temporaries and ends the process with the same exit code.
-void watchdog(int signals, int wakeRead) {
+void watchdog(int signals, int wakeRead, std::string message) {
     pollfd fds[2] = {{signals, POLLIN, 0}, {wakeRead, POLLIN, 0}};
     while (::poll(fds, 2, -1) < 0 && errno == EINTR) {
     }
@@ -97,8 +97,7 @@ void watchdog(int signals, int wakeRead) {
     Temporaries& t = temporaries();
     t.mutex.lock();  // held until _exit: no output can be registered, committed or left behind meanwhile
     removeOutputsLocked(t);
-    const char message[] = "gpisvdb: interrupted, no output written (stopped in a step that does not poll)\n";
-    [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message, sizeof(message) - 1);
+    [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message.data(), message.size());
     ::_exit(128 + gSignal.load());
 }
 }  // namespace
@@ -116,7 +115,7 @@ std::string& commandLine() {
     return line;
 }
 
-void installInterruptHandler() {
+void installInterruptHandler(const std::string& program) {
     // SIGINT and SIGTERM are blocked in this thread and so in every thread started after it (TBB's workers
     // included), and received synchronously by the watchdog through a signalfd. No handler of ours then runs
     // asynchronously, and none that a library installs for a while can take them: METIS (ordering the eigen
@@ -131,7 +130,9 @@ void installInterruptHandler() {
     int fds[2];
     if (signals >= 0 && ::pipe(fds) == 0) {
         gWakeWrite = fds[1];
-        std::thread(watchdog, signals, fds[0]).detach();
+        std::thread(watchdog, signals, fds[0],
+                    program + ": interrupted, no output written (stopped in a step that does not poll)\n")
+            .detach();
         std::signal(SIGINT, onSignal);
         std::signal(SIGTERM, onSignal);
     } else {
@@ -243,7 +244,12 @@ ModelOptions modelOptions(const ModelFlags& flags) {
 AtomicOutput::AtomicOutput(std::string path) : path_(std::move(path)), temp_(temporaryPathBeside(path_)) {
     registerTemporary(temp_, false);
     std::ofstream probe(temp_);
-    if (!probe) {
+    const bool writable = bool(probe);
+    probe.close();
+    // The writer makes the file again when the output is ready: until then a process killed outright (SIGKILL:
+    // mpirun's second step after SIGTERM, a batch scheduler, the OOM killer) leaves nothing behind.
+    std::remove(temp_.c_str());
+    if (!writable) {
         unregisterTemporary(temp_, false);
         throw OutputError(path_ + ": cannot write in " + std::filesystem::path(temp_).parent_path().string());
     }

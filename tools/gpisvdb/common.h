@@ -35,7 +35,8 @@ std::shared_ptr<void> limitThreads(int threads);
 ModelOptions modelOptions(const ModelFlags& flags);
 
 /// A file written under a temporary name in the target's directory and renamed on commit(); removed
-/// if never committed (error or interrupt). Opening fails at once when the directory is not writable.
+/// if never committed (error or interrupt). Opening fails at once when the directory is not writable (a probe,
+/// removed again: the temporary exists only while the writer writes it).
 class AtomicOutput {
 public:
     explicit AtomicOutput(std::string path);
@@ -79,8 +80,9 @@ std::string errorMessage(const Error& error);
 /// Sets up Ctrl-C and SIGTERM handling; call first in main, before any thread starts (they inherit the blocked
 /// signals). SIGINT and SIGTERM set a flag the Progress polls; a watchdog thread ends the process kInterruptGraceMs
 /// after the signal if the work has not stopped by then (removing every AtomicOutput/AtomicDirectory temporary),
-/// with 128 + the signal. Child processes must unblock the signals (headless_display.cpp does for Xvfb).
-void installInterruptHandler();
+/// with 128 + the signal, its message prefixed with `program`. Child processes must unblock the signals
+/// (headless_display.cpp does for Xvfb).
+void installInterruptHandler(const std::string& program = "gpisvdb");
 bool interruptRequested();
 /// The first signal received (SIGINT or SIGTERM), 0 if none: main returns 128 + it.
 int interruptSignal();
