@@ -8,6 +8,7 @@
 
 #include <csignal>
 #include <cstdlib>
+#include <functional>
 #include <thread>
 #include <vector>
 
@@ -242,13 +243,19 @@ TEST_CASE("mpi: Ctrl-C (SIGINT to mpirun) stops every rank within seconds and le
     std::vector<char*> argv;
     for (std::string& w : words) argv.push_back(w.data());
     argv.push_back(nullptr);
+    // One progress line per percent on the piped stderr: the signal waits for the ranks' first one. The environment
+    // is made before fork (only async-signal-safe calls between fork and exec).
+    std::vector<std::string> env = {"GPISVDB_PROGRESS=lines"};
+    for (char** e = environ; *e; ++e)
+        if (std::string(*e).rfind("GPISVDB_PROGRESS=", 0) != 0) env.emplace_back(*e);
+    std::vector<char*> envp;
+    for (std::string& e : env) envp.push_back(e.data());
+    envp.push_back(nullptr);
     const pid_t pid = fork();
     if (pid == 0) {
-        // One progress line per percent on the piped stderr: the signal waits for the ranks' first one
-        setenv("GPISVDB_PROGRESS", "lines", 1);
         const int devnull = open("/dev/null", O_RDWR), err = open(errPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         dup2(devnull, 0), dup2(devnull, 1), dup2(err, 2);
-        execv(argv[0], argv.data());
+        execve(argv[0], argv.data(), envp.data());
         _exit(127);
     }
     REQUIRE(pid > 0);
@@ -260,24 +267,31 @@ TEST_CASE("mpi: Ctrl-C (SIGINT to mpirun) stops every rank within seconds and le
     };
     // Signalled once the band reports progress, not at a fixed moment: on a loaded machine mpirun's start-up alone
     // can outlast a fixed delay, and a signal before the ranks install their handlers kills them without a word.
-    int status = 0;
-    bool finished = false;
-    const auto start = std::chrono::steady_clock::now();
     const auto since = [](std::chrono::steady_clock::time_point t) {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     };
-    while (readErr().find("gpisvdb-progress band") == std::string::npos && since(start) < 120)
-        if (waitpid(pid, &status, WNOHANG) == pid) {
-            finished = true;
-            break;
-        } else {
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        }
-    REQUIRE_FALSE(finished);
+    // Waits up to `limit` seconds for mpirun to end (true) or for `until` to hold (false).
+    int status = 0;
+    const auto waitFor = [&](double limit, const std::function<bool()>& until) {
+        for (const auto start = std::chrono::steady_clock::now(); since(start) < limit && !until();
+             std::this_thread::sleep_for(std::chrono::milliseconds(20)))
+            if (waitpid(pid, &status, WNOHANG) == pid) return true;
+        return false;
+    };
+    const bool endedFirst = waitFor(120, [&] { return readErr().find("gpisvdb-progress band") != std::string::npos; });
+    INFO(readErr());
+    if (endedFirst || readErr().find("gpisvdb-progress band") == std::string::npos) {
+        if (!endedFirst) kill(pid, SIGKILL), waitpid(pid, &status, 0);
+        FAIL("gpisvdb-mpi " << (endedFirst ? "ended" : "reported no band progress within 120 s") << " before the signal");
+    }
     kill(pid, SIGINT);
     const auto signalled = std::chrono::steady_clock::now();
-    waitpid(pid, &status, 0);
+    const bool ended = waitFor(30, [] { return false; });
     const double seconds = since(signalled);
+    if (!ended) {
+        kill(pid, SIGKILL), waitpid(pid, &status, 0);
+        FAIL("mpirun still running 30 s after SIGINT");
+    }
     const std::string err = readErr();
     INFO(err);
     CHECK(!(WIFEXITED(status) && WEXITSTATUS(status) == 0));

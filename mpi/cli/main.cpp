@@ -5,6 +5,7 @@
 #include <slepcsys.h>
 
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <iostream>
 
@@ -86,7 +87,9 @@ int main(int argc, char** argv) {
     if (gpisvdb::cli::interruptRequested()) {
         // After Ctrl-C mpirun tears the job down and SIGKILLs ranks that are still alive a second later (Open MPI's
         // odls_base_sigkill_timeout); finalizing would wait on it. The outputs are already removed: leave now.
+        std::cout.flush();
         std::cerr.flush();
+        std::fflush(nullptr);
         std::_Exit(code);
     }
     SlepcFinalize();

@@ -63,8 +63,21 @@ struct Temporaries {
 
 /// Removes the temporaries and the outputs committed so far; the caller holds the mutex.
 void removeOutputsLocked(Temporaries& t) {
+    namespace fs = std::filesystem;
     std::error_code ec;
-    for (const std::string& f : t.files) std::filesystem::remove(f, ec);
+    for (const std::string& f : t.files) {
+        fs::remove(f, ec);
+        // …and what a writer keeps beside a temporary under its name: the VDB writer's "T.part<pid>", green's
+        // spilled grids "T.grids"
+        const fs::path p(f);
+        const std::string prefix = p.filename().string() + ".";
+        const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+        for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+            if (it->path().filename().string().rfind(prefix, 0) == 0) {
+                std::error_code ignored;
+                fs::remove(it->path(), ignored);
+            }
+    }
     for (const std::string& d : t.directories) std::filesystem::remove_all(d, ec);
     for (const std::string& f : t.committed) std::filesystem::remove(f, ec);
 }
