@@ -1,6 +1,8 @@
 #pragma once
 // Running the gpisvdb program from tests: exit code, stdout and stderr; scratch files; partial-output checks.
+#include <fcntl.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -8,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "helpers.h"
 
@@ -20,6 +23,14 @@ struct Run {
     std::string out, err;
 };
 
+/// A file's whole content ("" when it cannot be read).
+inline std::string fileText(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
 /// A shell command line, its stdout and stderr captured.
 inline Run runShell(const std::string& command) {
     const fs::path dir = gpisvdb::test::scratchDir();
@@ -27,13 +38,37 @@ inline Run runShell(const std::string& command) {
     const int status = std::system((command + " >" + out + " 2>" + err + " </dev/null").c_str());
     Run r;
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::ifstream o(out), e(err);
-    std::stringstream so, se;
-    so << o.rdbuf();
-    se << e.rdbuf();
-    r.out = so.str();
-    r.err = se.str();
+    r.out = fileText(out);
+    r.err = fileText(err);
     return r;
+}
+
+/// Starts `words` (an absolute executable path, then its arguments) as a child process with stdin and stdout on
+/// /dev/null, stderr into `errPath`, and the environment plus `env` ("NAME=value", replacing the same names); for
+/// tests that signal a running program. Returns its pid.
+inline pid_t spawn(std::vector<std::string> words, const std::string& errPath, const std::vector<std::string>& env = {}) {
+    std::vector<std::string> vars = env;
+    for (char** e = environ; *e; ++e) {
+        const std::string var(*e);
+        const bool replaced = std::any_of(env.begin(), env.end(), [&](const std::string& v) {
+            return var.compare(0, v.find('=') + 1, v, 0, v.find('=') + 1) == 0;
+        });
+        if (!replaced) vars.push_back(var);
+    }
+    // Both arrays are made before fork: only async-signal-safe calls between fork and exec
+    std::vector<char*> argv, envp;
+    for (std::string& w : words) argv.push_back(w.data());
+    for (std::string& v : vars) envp.push_back(v.data());
+    argv.push_back(nullptr);
+    envp.push_back(nullptr);
+    const pid_t pid = fork();
+    if (pid == 0) {
+        const int devnull = open("/dev/null", O_RDWR), err = open(errPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        dup2(devnull, 0), dup2(devnull, 1), dup2(err, 2);
+        execve(argv[0], argv.data(), envp.data());
+        _exit(127);
+    }
+    return pid;
 }
 
 /// gpisvdb with these arguments.

@@ -11,7 +11,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -174,17 +173,8 @@ Signalled runSignalled(const std::string& args, int sig, double delay) {
     std::vector<std::string> words{GPISVDB_EXE};
     std::istringstream in(args);
     for (std::string w; in >> w;) words.push_back(w);
-    std::vector<char*> argv;
-    for (std::string& w : words) argv.push_back(w.data());
-    argv.push_back(nullptr);
     const std::string errPath = (test::scratchDir() / "gpisvdb_interrupt_stderr").string();
-    const pid_t pid = fork();
-    if (pid == 0) {
-        const int devnull = open("/dev/null", O_RDWR), err = open(errPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        dup2(devnull, 0), dup2(devnull, 1), dup2(err, 2);
-        execv(argv[0], argv.data());
-        _exit(127);
-    }
+    const pid_t pid = test::cli::spawn(words, errPath);
     Signalled s;
     int status = 0;
     const auto start = Clock::now();
@@ -204,10 +194,7 @@ Signalled runSignalled(const std::string& args, int sig, double delay) {
     // A signal that lands before main() installs its handlers (the dynamic loader alone can take that long on a
     // loaded machine) kills the process outright; a shell reports that as 128 + signal too, and nothing was written.
     s.code = WIFEXITED(status) ? WEXITSTATUS(status) : WIFSIGNALED(status) ? 128 + WTERMSIG(status) : -1;
-    std::ifstream e(errPath);
-    std::stringstream ss;
-    ss << e.rdbuf();
-    s.err = ss.str();
+    s.err = test::cli::fileText(errPath);
     return s;
 }
 

@@ -2,12 +2,10 @@
 // count, the PETSc Green's function equals gpisvdb green within the tolerance, ranks are balanced, and an error on
 // one rank ends every rank with one message and no output. Built only with gpisvdb-mpi (tests/CMakeLists.txt).
 #include <catch2/catch.hpp>
-#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <csignal>
-#include <cstdlib>
 #include <functional>
 #include <thread>
 #include <vector>
@@ -240,31 +238,9 @@ TEST_CASE("mpi: Ctrl-C (SIGINT to mpirun) stops every rank within seconds and le
                                       gpisvdb::test::dataPath("bunny.obj"), "--sigma", "0.25", "--source", "0.5,6,1",
                                       "--threads", "1", "-o", out};
     if (geteuid() == 0) words.insert(words.begin() + 1, "--allow-run-as-root");
-    std::vector<char*> argv;
-    for (std::string& w : words) argv.push_back(w.data());
-    argv.push_back(nullptr);
-    // One progress line per percent on the piped stderr: the signal waits for the ranks' first one. The environment
-    // is made before fork (only async-signal-safe calls between fork and exec).
-    std::vector<std::string> env = {"GPISVDB_PROGRESS=lines"};
-    for (char** e = environ; *e; ++e)
-        if (std::string(*e).rfind("GPISVDB_PROGRESS=", 0) != 0) env.emplace_back(*e);
-    std::vector<char*> envp;
-    for (std::string& e : env) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    const pid_t pid = fork();
-    if (pid == 0) {
-        const int devnull = open("/dev/null", O_RDWR), err = open(errPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        dup2(devnull, 0), dup2(devnull, 1), dup2(err, 2);
-        execve(argv[0], argv.data(), envp.data());
-        _exit(127);
-    }
+    // One progress line per percent on the piped stderr: the signal waits for the ranks' first one
+    const pid_t pid = spawn(words, errPath, {"GPISVDB_PROGRESS=lines"});
     REQUIRE(pid > 0);
-    const auto readErr = [&] {
-        std::ifstream in(errPath);
-        std::stringstream ss;
-        ss << in.rdbuf();
-        return ss.str();
-    };
     // Signalled once the band reports progress, not at a fixed moment: on a loaded machine mpirun's start-up alone
     // can outlast a fixed delay, and a signal before the ranks install their handlers kills them without a word.
     const auto since = [](std::chrono::steady_clock::time_point t) {
@@ -278,9 +254,10 @@ TEST_CASE("mpi: Ctrl-C (SIGINT to mpirun) stops every rank within seconds and le
             if (waitpid(pid, &status, WNOHANG) == pid) return true;
         return false;
     };
-    const bool endedFirst = waitFor(120, [&] { return readErr().find("gpisvdb-progress band") != std::string::npos; });
-    INFO(readErr());
-    if (endedFirst || readErr().find("gpisvdb-progress band") == std::string::npos) {
+    const auto progressed = [&] { return fileText(errPath).find("gpisvdb-progress band") != std::string::npos; };
+    const bool endedFirst = waitFor(120, progressed);
+    INFO(fileText(errPath));
+    if (endedFirst || !progressed()) {
         if (!endedFirst) kill(pid, SIGKILL), waitpid(pid, &status, 0);
         FAIL("gpisvdb-mpi " << (endedFirst ? "ended" : "reported no band progress within 120 s") << " before the signal");
     }
@@ -292,7 +269,7 @@ TEST_CASE("mpi: Ctrl-C (SIGINT to mpirun) stops every rank within seconds and le
         kill(pid, SIGKILL), waitpid(pid, &status, 0);
         FAIL("mpirun still running 30 s after SIGINT");
     }
-    const std::string err = readErr();
+    const std::string err = fileText(errPath);
     INFO(err);
     CHECK(!(WIFEXITED(status) && WEXITSTATUS(status) == 0));
     CHECK(err.find("gpisvdb-mpi: interrupted") != std::string::npos);
