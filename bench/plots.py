@@ -183,6 +183,10 @@ def plot_model(ctx, d):
                 label="direct sum (sphere soups)")
         ax.plot([r["n"] for r in spheres], [1e6 / r["bh_qps_1t"] for r in spheres], "o-", color="C0",
                 label="Barnes–Hut, β = %g (sphere soups)" % d.get("beta_default", 6))
+        blocks = [r for r in spheres if "leaf_block_us_per_point_1t" in r]
+        if blocks:
+            ax.plot([r["n"] for r in blocks], [r["leaf_block_us_per_point_1t"] for r in blocks], "o--", color="C1",
+                    label="Barnes–Hut on band-like 8³ blocks (sphere soups)")
         for i, r in enumerate(others):
             mk = "s^Dv"[i % 4]
             ax.plot(r["n"], 1e6 / r["direct_qps_1t"], mk, mfc="none", color="C3")

@@ -134,6 +134,40 @@ TEST_CASE("model: Barnes-Hut converges to the direct sum as beta grows", "[model
     }
 }
 
+TEST_CASE("model: the covariance's opening ratio trades its accuracy alone; packets follow it point by point", "[model]") {
+    // BarnesHutOptions::covarianceRatio (default 2): the covariance's error against the direct sum grows as the ratio
+    // falls to 1 while the mean's stays (the mean's opening test does not read it), and the packets open what
+    // evaluate(x) opens at every ratio (with the near field in double, to rounding).
+    const Samples s = makeSamples(readInput(test::dataPath("bunny.obj")), {0.5}).samples;
+    const double sm = 0.4 * s.lengthScale;
+    const auto xs = nearAndFar(s, 400, 23);
+    const auto ref = DirectGpis(s, sm).evaluate(xs);
+    double previousCov = 1e300, meanAtDefault = -1;
+    for (double ratio : {1.0, 2.0, 3.0}) {
+        BarnesHutOptions o;
+        o.covarianceRatio = ratio;
+        o.floatNearField = false;
+        const BarnesHutGpis bh(s, sm, o);
+        const auto batch = bh.evaluate(xs);
+        const ModelError e = compareModels(ref, batch);
+        const double cov = *std::max_element(e.maxRel.begin() + 4, e.maxRel.end());
+        const double mean = *std::max_element(e.maxRel.begin(), e.maxRel.begin() + 4);
+        INFO("covariance ratio " << ratio << ": " << e.describe());
+        CHECK(cov < previousCov);
+        previousCov = cov;
+        if (meanAtDefault < 0) meanAtDefault = mean;
+        CHECK(mean == meanAtDefault);
+        std::vector<ValueGradient> single(xs.size());
+        for (std::size_t i = 0; i < xs.size(); ++i) single[i] = bh.evaluate(xs[i]);
+        CHECK(compareModels(single, batch).worst() <= 1e-12);
+    }
+    for (double bad : {0.5, std::nan(""), 1.0 / 0.0}) {
+        BarnesHutOptions o;
+        o.covarianceRatio = bad;
+        CHECK_THROWS_AS(BarnesHutGpis(s, sm, o), ParameterError);
+    }
+}
+
 TEST_CASE("model: a packet of points opens the nodes each point opens alone (batch equals single-point evaluation)", "[model]") {
     // The batch path (Morton order, packets of 8, SIMD lanes) against the reference path (one traversal per point):
     // the same nodes and samples per point, so the same numbers to rounding with the near field in double, and to

@@ -15,6 +15,10 @@ BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOp
         throw ParameterError("the Barnes-Hut opening criterion β (BarnesHutOptions::beta) must be finite and > 1 (got " +
                                  numberText(options.beta) + ")",
                              {"BarnesHutOptions::beta"});
+    if (!(options.covarianceRatio >= 1) || !std::isfinite(options.covarianceRatio))
+        throw ParameterError("the covariance's opening ratio (BarnesHutOptions::covarianceRatio) must be finite and >= 1 (got " +
+                                 numberText(options.covarianceRatio) + ")",
+                             {"BarnesHutOptions::covarianceRatio"});
     if (options.leafSize < 1) throw ParameterError("the Barnes-Hut leaf size must be >= 1");
     if (samples.size() == 0) throw InputError("no samples to build a GPIS from");
     if (samples.size() >= std::size_t(UINT32_MAX)) throw InputError("too many samples (limit 2^32 - 1)");

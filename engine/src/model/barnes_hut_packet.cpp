@@ -282,7 +282,8 @@ void PacketTraversal::run(const BarnesHutGpis& bh, const double (*xs)[kLanes], d
     int top = 0;
     stack[top++] = {0u, 0u, 0u};
     const double betaMean2 = options_.beta * options_.beta;
-    const double covBeta2 = 4.0 * options_.beta * options_.beta, relaxFrom = options_.covarianceRelax * kernel_.smoothing();
+    const double covBeta2 = bh.covarianceRatio2(), covFloor2 = std::min(4.0, covBeta2);
+    const double relaxFrom = options_.covarianceRelax * kernel_.smoothing();
     const double relaxFrom2 = relaxFrom * relaxFrom, relaxNumerator = covBeta2 * relaxFrom;
     while (top > 0) {
         Entry e = stack[--top];

@@ -18,8 +18,10 @@ namespace gpisvdb {
 struct BarnesHutOptions {
     double beta = 6.0;              ///< accuracy: a node stands in for its samples' mean beyond beta × its radius,
                                     ///< and for their covariance beyond 2·beta × its radius (dimensionless, > 1)
+    double covarianceRatio = 2.0;   ///< the covariance's opening ratio near the query, in units of beta
+                                    ///< (dimensionless, ≥ 1): its expansion is first order, the mean's second
     double covarianceRelax = 5.0;   ///< beyond this distance (units of the smoothing s) the covariance ratio
-                                    ///< relaxes like √(L/d), down to 2
+                                    ///< relaxes like √(L/d), down to 2 (or to covarianceRatio·beta if smaller)
     int leafSize = 32;     ///< most samples in a leaf (≥ 1); 32 is both faster and more accurate than 16 in packets
                            ///< (docs/model.md#packets)
     bool floatNearField = true;  ///< packets sum a leaf's samples in float lanes, in units of s (≈ 1e-6 relative,
@@ -91,13 +93,19 @@ private:
     /// The covariance's opening ratio², by the squared distance d2 (the packet traversal repeats it in lanes).
     double covarianceBeta2(double d2) const {
         // The covariance's relative truncation error per node has a large constant (its terms fall off like
-        // 1/d⁴…1/d⁸), so near the query it needs twice the mean's ratio. Far away its terms are small against the
+        // 1/d⁴…1/d⁸), so near the query it needs twice the mean's ratio (covarianceRatio). Far away its terms are small against the
         // near field: a node's absolute error falls like (r/d)⁴ (L/d)², so the ratio may relax like √(L/d) beyond
         // L = covarianceRelax·s, down to 2.
-        const double b2 = 4.0 * options_.beta * options_.beta;
+        const double b2 = covarianceRatio2();
         const double L = options_.covarianceRelax * kernel_.smoothing();
         if (d2 <= L * L) return b2;
-        return std::max(4.0, b2 * L / std::sqrt(d2));
+        return std::max(std::min(4.0, b2), b2 * L / std::sqrt(d2));
+    }
+
+    /// (covarianceRatio·beta)², the covariance's opening ratio² near the query.
+    double covarianceRatio2() const {
+        const double b = options_.covarianceRatio * options_.beta;
+        return b * b;
     }
 
     Samples samples_;  // reordered so that every node's samples are contiguous
