@@ -296,7 +296,7 @@ void PacketTraversal::run(const BarnesHutGpis& bh, const double (*xs)[kLanes], d
         Lanes root, cb2;
         for (int l = 0; l < kLanes; ++l) root[l] = std::sqrt(d2[l]);
         const Lanes relaxed = relaxNumerator / root;
-        for (int l = 0; l < kLanes; ++l) cb2[l] = d2[l] <= relaxFrom2 ? covBeta2 : std::max(4.0, relaxed[l]);
+        for (int l = 0; l < kLanes; ++l) cb2[l] = d2[l] <= relaxFrom2 ? covBeta2 : std::max(covFloor2, relaxed[l]);
         LaneMask farMeanLanes = 0, farCovLanes = 0;
         for (int l = 0; l < kLanes; ++l) {
             const LaneMask bit = 1u << l;

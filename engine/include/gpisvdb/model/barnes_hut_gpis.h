@@ -17,7 +17,8 @@ namespace gpisvdb {
 
 struct BarnesHutOptions {
     double beta = 6.0;              ///< accuracy: a node stands in for its samples' mean beyond beta × its radius,
-                                    ///< and for their covariance beyond 2·beta × its radius (dimensionless, > 1)
+                                    ///< and for their covariance beyond covarianceRatio·beta × its radius near
+                                    ///< the query (dimensionless, > 1)
     double covarianceRatio = 2.0;   ///< the covariance's opening ratio near the query, in units of beta
                                     ///< (dimensionless, ≥ 1): its expansion is first order, the mean's second
     double covarianceRelax = 5.0;   ///< beyond this distance (units of the smoothing s) the covariance ratio
@@ -93,9 +94,9 @@ private:
     /// The covariance's opening ratio², by the squared distance d2 (the packet traversal repeats it in lanes).
     double covarianceBeta2(double d2) const {
         // The covariance's relative truncation error per node has a large constant (its terms fall off like
-        // 1/d⁴…1/d⁸), so near the query it needs twice the mean's ratio (covarianceRatio). Far away its terms are small against the
-        // near field: a node's absolute error falls like (r/d)⁴ (L/d)², so the ratio may relax like √(L/d) beyond
-        // L = covarianceRelax·s, down to 2.
+        // 1/d⁴…1/d⁸), so near the query it needs twice the mean's ratio (covarianceRatio = 2). Far away its terms
+        // are small against the near field: a node's absolute error falls like (r/d)⁴ (L/d)², so the ratio may relax
+        // like √(L/d) beyond L = covarianceRelax·s, down to 2 (or to its ratio near the query, if that is smaller).
         const double b2 = covarianceRatio2();
         const double L = options_.covarianceRelax * kernel_.smoothing();
         if (d2 <= L * L) return b2;
