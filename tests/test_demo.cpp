@@ -143,7 +143,7 @@ TEST_CASE("demo: writes every promised file, and each opens in an independent re
 TEST_CASE("demo: an interrupted run leaves no output directory", "[demo][cli]") {
     const std::string dir = temp("demo_interrupted");
     fs::remove_all(dir);
-    const Run r = runInterrupted("demo -o " + dir + " --quiet", 3);
+    const Run r = runInterrupted("demo -o " + dir);
     INFO(r.err);
     CHECK(r.code == 130);
     CHECK_THAT(r.err, Catch::Contains("interrupted"));
