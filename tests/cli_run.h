@@ -113,8 +113,9 @@ inline Run runInterrupted(const std::string& args, double limitSeconds = 300) {
             if (waitpid(pid, &status, WNOHANG) == pid) return true;
         return false;
     };
-    bool ended = waitFor(limitSeconds, [&] { return fileText(errPath).find("gpisvdb-progress ") != std::string::npos; });
-    if (!ended) {
+    const auto progressed = [&] { return fileText(errPath).find("gpisvdb-progress ") != std::string::npos; };
+    bool ended = waitFor(limitSeconds, progressed);
+    if (!ended && progressed()) {
         kill(pid, SIGINT);
         ended = waitFor(60, [] { return false; });
     }
