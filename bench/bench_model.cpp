@@ -53,12 +53,13 @@ std::vector<Vec3d> leafBlocks(const Samples& s, std::size_t blocks, std::uint64_
     return xs;
 }
 
-/// Median seconds per query over `repeats` runs of the batch.
-double perQuery(const GpisModel& m, const std::vector<Vec3d>& xs, int repeats) {
+/// Median seconds per query over `repeats` runs of the batch (evaluateDense with `dense`).
+double perQuery(const GpisModel& m, const std::vector<Vec3d>& xs, int repeats, bool dense = false) {
     std::vector<double> t;
     for (int r = 0; r < repeats; ++r) {
         const auto start = Clock::now();
-        m.evaluate(xs);
+        if (dense) m.evaluateDense(xs);
+        else m.evaluate(xs);
         t.push_back(seconds(start) / double(xs.size()));
     }
     return median(t);
@@ -119,6 +120,13 @@ int main(int argc, char** argv) {
             const auto xsLeaf = leafBlocks(s, quick ? 4 : 16, 5);
             row["leaf_block_us_per_point_1t"] = 1e6 * perQuery(bh, xsLeaf, 3);
             row["leaf_block_us_per_point_reference_1t"] = 1e6 * perQuery(bhPerPoint, xsLeaf, 1);
+            // The far field shared per cell (evaluateDense, docs/model.md#cells), side by side.
+            // No table is kept between the repeats (cellCacheBytes = 0): each run tabulates its cells.
+            BarnesHutOptions cellOptions;
+            cellOptions.cellCacheBytes = 0;
+            const BarnesHutGpis bhCells(s, sm, cellOptions);
+            row["leaf_block_us_per_point_cells_1t"] = 1e6 * perQuery(bhCells, xsLeaf, 3, true);
+            row["cells_error_worst"] = compareModels(direct.evaluate(errPoints), bhCells.evaluateDense(errPoints)).worst();
         }
         for (int threads : {1, 2}) {
             tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
@@ -152,6 +160,34 @@ int main(int argc, char** argv) {
                                   {"error_worst", e.worst()}, {"qps_1t", 1.0 / tq}};
             std::cout << row.dump() << std::endl;
             report["beta_sweep_bunny"].push_back(row);
+        }
+    }
+    // === Cells (evaluateDense, cells of 12 s = 4.8ℓ): error and cost against the Chebyshev nodes per axis, on
+    // band-like blocks of the largest soup
+    {
+        const Samples& s = inputs[inputs.size() - 3].samples;
+        const double sm = 0.4 * s.lengthScale;
+        const auto xs = leafBlocks(s, quick ? 4 : 16, 6);
+        const BarnesHutGpis bh(s, sm);
+        std::vector<Vec3d> some;
+        for (std::size_t i = 0; i < xs.size(); i += 32) some.push_back(xs[i]);
+        const auto ref = DirectGpis(s, sm).evaluate(some);
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        nlohmann::json base = {{"input", inputs[inputs.size() - 3].name}, {"cell_nodes", 0},
+                               {"us_per_point_1t", 1e6 * perQuery(bh, xs, 3)},
+                               {"error_worst", compareModels(ref, bh.evaluate(some)).worst()}};
+        std::cout << base.dump() << std::endl;
+        report["cells_sweep"].push_back(base);
+        for (int nodes : {2, 3, 4, 5, 6}) {
+            BarnesHutOptions o;
+            o.cellNodes = nodes;
+            o.cellCacheBytes = 0;
+            const BarnesHutGpis cells(s, sm, o);
+            nlohmann::json row = {{"input", base["input"]}, {"cell_width_s", o.cellWidth}, {"cell_nodes", nodes},
+                                  {"us_per_point_1t", 1e6 * perQuery(cells, xs, 3, true)},
+                                  {"error_worst", compareModels(ref, cells.evaluateDense(some)).worst()}};
+            std::cout << row.dump() << std::endl;
+            report["cells_sweep"].push_back(row);
         }
     }
     std::ofstream(out) << report.dump(2) << "\n";

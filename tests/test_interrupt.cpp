@@ -89,18 +89,22 @@ TEST_CASE("interrupt: a flag polled inside a parallel model evaluation stops eve
     const BarnesHutGpis model(samples, 0.4 * samples.lengthScale);
     std::vector<Vec3d> xs(200000);
     for (std::size_t i = 0; i < xs.size(); ++i) xs[i] = Vec3d(std::sin(0.001 * i), 9.0 * (i % 997) / 997.0, 0.0);
-    CountingInterrupt c(40);  // past the block boundary poll: inside the parallel loop
-    CHECK_THROWS_AS(model.evaluate(xs, c.progress()), Cancelled);
-    const long after = c.polls;
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    CHECK(c.polls == after);  // no worker still running (and polling) once evaluate threw
-    CHECK(after < 40 + 4 * long(std::thread::hardware_concurrency()) + 8);  // each worker stops at its next poll
-    // Polling does not change the results.
-    const std::vector<Vec3d> few(xs.begin(), xs.begin() + 1000);
-    Progress never;
-    never.interrupted = [] { return false; };
-    const std::vector<ValueGradient> a = model.evaluate(few), b = model.evaluate(few, never);
-    for (std::size_t i = 0; i < few.size(); ++i) REQUIRE(a[i].mean == b[i].mean);
+    for (const bool dense : {false, true}) {  // packets, and the cells of evaluateDense (a band's voxels)
+        INFO(std::string(dense ? "evaluateDense" : "evaluate"));
+        CountingInterrupt c(40);  // past the block boundary poll: inside the parallel loop
+        CHECK_THROWS_AS(dense ? model.evaluateDense(xs, c.progress()) : model.evaluate(xs, c.progress()), Cancelled);
+        const long after = c.polls;
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        CHECK(c.polls == after);  // no worker still running (and polling) once evaluate threw
+        CHECK(after < 40 + 4 * long(std::thread::hardware_concurrency()) + 8);  // each worker stops at its next poll
+        // Polling does not change the results.
+        const std::vector<Vec3d> few(xs.begin(), xs.begin() + 1000);
+        Progress never;
+        never.interrupted = [] { return false; };
+        const std::vector<ValueGradient> a = dense ? model.evaluateDense(few) : model.evaluate(few),
+                                         b = dense ? model.evaluateDense(few, never) : model.evaluate(few, never);
+        for (std::size_t i = 0; i < few.size(); ++i) REQUIRE(a[i].mean == b[i].mean);
+    }
 }
 
 TEST_CASE("interrupt: the PCG, fast marching and the eigen solver stop at the flag", "[interrupt]") {

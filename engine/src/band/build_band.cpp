@@ -203,7 +203,7 @@ std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vec
         const Coord& c = coords[begin + i];
         xs[i] = h * Vec3d(c.x(), c.y(), c.z());
     }
-    const std::vector<ValueGradient> z = model.evaluate(xs, progress);
+    const std::vector<ValueGradient> z = model.evaluateDense(xs, progress);
     stats.modelSeconds += since(t);
     t = Clock::now();
     std::vector<BandVoxel> out(n);

@@ -20,8 +20,21 @@ BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOp
                                  numberText(options.covarianceRatio) + ")",
                              {"BarnesHutOptions::covarianceRatio"});
     if (options.leafSize < 1) throw ParameterError("the Barnes-Hut leaf size must be >= 1");
+    if (!(options.cellWidth >= 0) || !std::isfinite(options.cellWidth))
+        throw ParameterError("the far field's cell width (BarnesHutOptions::cellWidth) must be finite and >= 0 (got " +
+                                 numberText(options.cellWidth) + ")",
+                             {"BarnesHutOptions::cellWidth"});
+    if (options.cellNodes < 2 || options.cellNodes > 8)
+        throw ParameterError("the cells' Chebyshev nodes per axis (BarnesHutOptions::cellNodes) must be 2 to 8 (got " +
+                                 std::to_string(options.cellNodes) + ")",
+                             {"BarnesHutOptions::cellNodes"});
+    if (!(options.cellSeparation >= 0.5) || !std::isfinite(options.cellSeparation))
+        throw ParameterError("the cells' separation (BarnesHutOptions::cellSeparation) must be finite and >= 0.5 (got " +
+                                 numberText(options.cellSeparation) + ")",
+                             {"BarnesHutOptions::cellSeparation"});
     if (samples.size() == 0) throw InputError("no samples to build a GPIS from");
     if (samples.size() >= std::size_t(UINT32_MAX)) throw InputError("too many samples (limit 2^32 - 1)");
+    if (options.cellWidth > 0) cells_ = newCellCache();
     samples_ = samples;
     addNode(0, std::uint32_t(samples_.size()));
     split(0, 0);

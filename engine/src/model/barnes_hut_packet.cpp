@@ -11,6 +11,7 @@
 
 #include "contributions.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "morton.h"
 #include "packet_lanes.h"
 #include "packet_near_field.h"
 
@@ -255,12 +256,57 @@ GPISVDB_LANES_INLINE void sample(const Vec3d& w, double var, const Sym3& N, cons
 /// The packet traversal, on plain arrays: x[d][l] coordinate d of lane l; out: mean[4][kLanes], cov[4][4][kLanes]
 /// (upper triangle), unnormalised.
 struct PacketTraversal {
-    GPISVDB_PACKET_CLONES static void run(const BarnesHutGpis& bh, const double (*xs)[kLanes], double (*meanOut)[kLanes],
-                                          double (*covOut)[4][kLanes]);
+    /// From the given roots (the tree's root: evaluate(x)'s nodes; a cell's roots: the rest of its points' nodes).
+    GPISVDB_PACKET_CLONES static void run(const BarnesHutGpis& bh, const BarnesHutGpis::Root* roots, std::size_t rootCount,
+                                          const double (*xs)[kLanes], double (*meanOut)[kLanes], double (*covOut)[4][kLanes]);
+    /// The far expansions of the listed nodes (mean, covariance) at every lane, whatever the opening tests say.
+    GPISVDB_PACKET_CLONES static void far(const BarnesHutGpis& bh, const std::uint32_t* meanNodes, std::size_t meanCount,
+                                          const std::uint32_t* covNodes, std::size_t covCount, const double (*xs)[kLanes],
+                                          double (*meanOut)[kLanes], double (*covOut)[4][kLanes]);
 };
 
-void PacketTraversal::run(const BarnesHutGpis& bh, const double (*xs)[kLanes], double (*meanOut)[kLanes],
-                          double (*covOut)[4][kLanes]) {
+namespace {
+
+GPISVDB_LANES_INLINE void store(const LaneSums& sums, double (*meanOut)[kLanes], double (*covOut)[4][kLanes]) {
+    for (int a = 0; a < 4; ++a)
+        for (int l = 0; l < kLanes; ++l) {
+            meanOut[a][l] = sums.mean[a][l];
+            for (int b = a; b < 4; ++b) covOut[a][b][l] = sums.cov[a][b][l];
+        }
+}
+
+}  // namespace
+
+void PacketTraversal::far(const BarnesHutGpis& bh, const std::uint32_t* meanNodes, std::size_t meanCount,
+                          const std::uint32_t* covNodes, std::size_t covCount, const double (*xs)[kLanes],
+                          double (*meanOut)[kLanes], double (*covOut)[4][kLanes]) {
+    LaneVec3 x;
+    for (int d = 0; d < 3; ++d)
+        for (int l = 0; l < kLanes; ++l) x[d][l] = xs[d][l];
+    LaneSums sums;
+    const Lanes all = splat(1.0);
+    auto at = [&](std::uint32_t node, LaneVec3& y, Lanes& d2) {
+        for (int d = 0; d < 3; ++d) y[d] = x[d] - bh.nodes_[node].centre[d];
+        d2 = y[0] * y[0] + y[1] * y[1] + y[2] * y[2];
+        return kernelAt(bh.kernel_, d2);
+    };
+    for (std::size_t k = 0; k < meanCount; ++k) {
+        LaneVec3 y;
+        Lanes d2;
+        const LaneKernel F = at(meanNodes[k], y, d2);
+        farMean(bh.meanMoments_[meanNodes[k]], y, F, all, sums);
+    }
+    for (std::size_t k = 0; k < covCount; ++k) {
+        LaneVec3 y;
+        Lanes d2;
+        const LaneKernel F = at(covNodes[k], y, d2);
+        farCovariance(bh.covMoments_[covNodes[k]], y, d2, F, all, sums);
+    }
+    store(sums, meanOut, covOut);
+}
+
+void PacketTraversal::run(const BarnesHutGpis& bh, const BarnesHutGpis::Root* roots, std::size_t rootCount,
+                          const double (*xs)[kLanes], double (*meanOut)[kLanes], double (*covOut)[4][kLanes]) {
     const auto& nodes_ = bh.nodes_;
     const auto& meanMoments_ = bh.meanMoments_;
     const auto& covMoments_ = bh.covMoments_;
@@ -280,12 +326,16 @@ void PacketTraversal::run(const BarnesHutGpis& bh, const double (*xs)[kLanes], d
     };
     std::array<Entry, 8 * BarnesHutGpis::kMaxDepth + 8> stack;
     int top = 0;
-    stack[top++] = {0u, 0u, 0u};
+    std::size_t nextRoot = 0;
     const double betaMean2 = options_.beta * options_.beta;
     const double covBeta2 = bh.covarianceRatio2(), covFloor2 = std::min(4.0, covBeta2);
     const double relaxFrom = options_.covarianceRelax * kernel_.smoothing();
     const double relaxFrom2 = relaxFrom * relaxFrom, relaxNumerator = covBeta2 * relaxFrom;
-    while (top > 0) {
+    while (top > 0 || nextRoot < rootCount) {
+        if (top == 0) {  // the next root, once the previous one's subtree is done (the stack stays within its bound)
+            const BarnesHutGpis::Root& r = roots[nextRoot++];
+            stack[top++] = {r.node, r.doneMean ? kAllLanes : 0u, r.doneCov ? kAllLanes : 0u};
+        }
         Entry e = stack[--top];
         const BarnesHutGpis::Node& node = nodes_[e.node];
         LaneVec3 y;
@@ -331,11 +381,18 @@ void PacketTraversal::run(const BarnesHutGpis& bh, const double (*xs)[kLanes], d
         for (int c = node.childCount - 1; c >= 0; --c)
             stack[top++] = {node.firstChild + std::uint32_t(c), e.doneMean, e.doneCov};
     }
-    for (int a = 0; a < 4; ++a)
-        for (int l = 0; l < kLanes; ++l) {
-            meanOut[a][l] = sums.mean[a][l];
-            for (int b = a; b < 4; ++b) covOut[a][b][l] = sums.cov[a][b][l];
-        }
+    store(sums, meanOut, covOut);
+}
+
+void BarnesHutGpis::traversePacket(const Root* roots, std::size_t rootCount, const double (*xs)[kPacket],
+                                   double (*mean)[kPacket], double (*cov)[4][kPacket]) const {
+    PacketTraversal::run(*this, roots, rootCount, xs, mean, cov);
+}
+
+void BarnesHutGpis::farPacket(const std::uint32_t* meanNodes, std::size_t meanCount, const std::uint32_t* covNodes,
+                              std::size_t covCount, const double (*xs)[kPacket], double (*mean)[kPacket],
+                              double (*cov)[4][kPacket]) const {
+    PacketTraversal::far(*this, meanNodes, meanCount, covNodes, covCount, xs, mean, cov);
 }
 
 void BarnesHutGpis::evaluatePacket(const Vec3d* xs, int count, ValueGradient* out) const {
@@ -343,7 +400,8 @@ void BarnesHutGpis::evaluatePacket(const Vec3d* xs, int count, ValueGradient* ou
     double x[3][kLanes], mean[4][kLanes], cov[4][4][kLanes];
     for (int l = 0; l < kLanes; ++l)
         for (int d = 0; d < 3; ++d) x[d][l] = xs[std::min(l, count - 1)][d];  // spare lanes repeat the last point
-    PacketTraversal::run(*this, x, mean, cov);
+    const Root root;
+    traversePacket(&root, 1, x, mean, cov);
     for (int l = 0; l < count; ++l) {
         ValueGradient& o = out[l];
         for (int a = 0; a < 4; ++a) {
@@ -353,24 +411,6 @@ void BarnesHutGpis::evaluatePacket(const Vec3d* xs, int count, ValueGradient* ou
         detail::finish(o);
     }
 }
-
-namespace {
-
-/// Interleaves the bits of three 21-bit integers: nearby points get nearby keys.
-std::uint64_t morton(std::uint64_t a, std::uint64_t b, std::uint64_t c) {
-    auto spread = [](std::uint64_t v) {
-        v &= 0x1fffff;
-        v = (v | v << 32) & 0x1f00000000ffffULL;
-        v = (v | v << 16) & 0x1f0000ff0000ffULL;
-        v = (v | v << 8) & 0x100f00f00f00f00fULL;
-        v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-        v = (v | v << 2) & 0x1249249249249249ULL;
-        return v;
-    };
-    return spread(a) | spread(b) << 1 | spread(c) << 2;
-}
-
-}  // namespace
 
 std::vector<ValueGradient> BarnesHutGpis::evaluate(const std::vector<Vec3d>& xs, const Progress& progress) const {
     std::vector<ValueGradient> out(xs.size());
@@ -382,7 +422,7 @@ std::vector<ValueGradient> BarnesHutGpis::evaluate(const std::vector<Vec3d>& xs,
     std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(xs.size());
     tbb::parallel_for(std::size_t(0), xs.size(), [&](std::size_t i) {
         const Vec3d q = ((xs[i] - lo) / extent * double(0x1fffff)).cwiseMax(0.0);
-        keyed[i] = {morton(std::uint64_t(q.x()), std::uint64_t(q.y()), std::uint64_t(q.z())), std::uint32_t(i)};
+        keyed[i] = {detail::morton(std::uint64_t(q.x()), std::uint64_t(q.y()), std::uint64_t(q.z())), std::uint32_t(i)};
     });
     std::sort(keyed.begin(), keyed.end());
     // === Packets, in parallel; a packet's results depend only on its points

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "gpisvdb/input/samples.h"
@@ -27,6 +28,14 @@ struct BarnesHutOptions {
                            ///< (docs/model.md#packets)
     bool floatNearField = true;  ///< packets sum a leaf's samples in float lanes, in units of s (≈ 1e-6 relative,
                                  ///< docs/model.md#packets); false: in double, to rounding of evaluate(x)
+    double cellWidth = 12;  ///< > 0: evaluateDense (a band's voxels) shares the far field per cell of this width
+                            ///< (units of s, a lattice anchored at the world origin), Chebyshev-interpolated
+                            ///< (docs/model.md#cells); 0: every packet sums its own, to rounding of evaluate(x)
+    int cellNodes = 4;     ///< Chebyshev nodes per axis of a cell's interpolant (2…8)
+    double cellSeparation = 1;  ///< a node joins a cell's far field only this far from the cell (units of cellWidth,
+                                ///< ≥ 0.5), besides passing the opening tests for every point of the cell
+    std::size_t cellCacheBytes = std::size_t(256) << 20;  ///< cells' tables kept for later batches, at most (bytes);
+                                                          ///< beyond, a cell is planned again in every batch
 };
 
 class BarnesHutGpis final : public GpisModel {
@@ -37,8 +46,14 @@ public:
     ValueGradient evaluate(const Vec3d& x) const override;
     /// Many points: sorted along a Morton curve and evaluated kPacket at a time, one traversal per packet
     /// (evaluatePacket). Each result equals evaluate(x) up to rounding, and depends on neither the thread count nor
-    /// the other points of the batch (to the bit: the band's builder evaluates in batches of any size).
+    /// the other points of the batch (to the bit).
     std::vector<ValueGradient> evaluate(const std::vector<Vec3d>& xs, const Progress& progress = {}) const override;
+    /// A band's voxels: with cellWidth > 0 the far field comes from the point's cell (evaluateInCells), within the
+    /// model's error of evaluate(x), not to rounding, and still independent of the batch and the thread count (to
+    /// the bit: the band's builder evaluates in batches of any size); with cellWidth = 0, evaluate(xs).
+    std::vector<ValueGradient> evaluateDense(const std::vector<Vec3d>& xs, const Progress& progress = {}) const override {
+        return options_.cellWidth > 0 ? evaluateInCells(xs, progress) : evaluate(xs, progress);
+    }
 
     /// Points evaluated together: every node is tested for each of them and its expansion computed for all of them
     /// at once, in SIMD lanes; each point keeps exactly the nodes and the order that evaluate(x) would use.
@@ -49,6 +64,8 @@ public:
     std::size_t nodeCount() const { return nodes_.size(); }
     /// Bytes held by the tree and its reordered copy of the samples.
     std::size_t memoryBytes() const;
+    /// Bytes held by the cells' tables kept for later batches (cellWidth > 0; at most cellCacheBytes).
+    std::size_t cellCacheBytes() const;
 
     /// Tree topology and the opening test: what every visit reads, kept small for the cache.
     struct Node {
@@ -85,6 +102,22 @@ public:
 
 private:
     friend struct PacketTraversal;  // barnes_hut_packet.cpp
+    friend struct CellPlanner;      // barnes_hut_cells.cpp
+    friend struct CellTable;        // barnes_hut_cells.cpp
+    /// A node where a packet's traversal starts, with the parts (mean, covariance) its cell already holds.
+    struct Root {
+        std::uint32_t node = 0;
+        bool doneMean = false, doneCov = false;
+    };
+    /// evaluateDense with cellWidth > 0 (barnes_hut_cells.cpp).
+    std::vector<ValueGradient> evaluateInCells(const std::vector<Vec3d>& xs, const Progress& progress) const;
+    /// The packet traversal from `roots` (barnes_hut_packet.cpp): points xs[d][lane], unnormalised sums mean[a][lane]
+    /// and cov[a][b][lane] (a ≤ b).
+    void traversePacket(const Root* roots, std::size_t rootCount, const double (*xs)[kPacket], double (*mean)[kPacket],
+                        double (*cov)[4][kPacket]) const;
+    /// The far expansions of the listed nodes at every point of a packet, unnormalised, as traversePacket.
+    void farPacket(const std::uint32_t* meanNodes, std::size_t meanCount, const std::uint32_t* covNodes,
+                   std::size_t covCount, const double (*xs)[kPacket], double (*mean)[kPacket], double (*cov)[4][kPacket]) const;
     static constexpr int kMaxDepth = 48;  // coincident samples stop splitting here
     void split(std::uint32_t node, int depth);
     /// Appends a node over samples [begin, end) with its moments; returns its index.
@@ -108,6 +141,10 @@ private:
         const double b = options_.covarianceRatio * options_.beta;
         return b * b;
     }
+
+    struct CellCache;  // barnes_hut_cells.cpp
+    static std::shared_ptr<CellCache> newCellCache();
+    std::shared_ptr<CellCache> cells_;  // filled by const batches: a cell's table depends on nothing but the cell
 
     Samples samples_;  // reordered so that every node's samples are contiguous
     std::vector<NearSample> nearSamples_;  // samples_ in units of s, in float, in the same order

@@ -21,6 +21,12 @@ public:
     virtual ValueGradient evaluate(const Vec3d& x) const = 0;
     /// Batch evaluation, parallel over points with TBB; results do not depend on the thread count.
     virtual std::vector<ValueGradient> evaluate(const std::vector<Vec3d>& xs, const Progress& progress = {}) const;
+    /// Points that fill space densely (a band's voxels): a model may share work between neighbours, so results may
+    /// differ from evaluate(xs)'s within the model's documented error; each still depends on its point alone, never on
+    /// the batch or the thread count. By default evaluate(xs).
+    virtual std::vector<ValueGradient> evaluateDense(const std::vector<Vec3d>& xs, const Progress& progress = {}) const {
+        return evaluate(xs, progress);
+    }
     /// The level u of the surface φ = u in this model's convention: 1/2 for the winding number (1 inside, 0 outside).
     virtual double naturalIso() const { return 0.5; }
 };
