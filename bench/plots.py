@@ -187,6 +187,10 @@ def plot_model(ctx, d):
         if blocks:
             ax.plot([r["n"] for r in blocks], [r["leaf_block_us_per_point_1t"] for r in blocks], "o--", color="C1",
                     label="Barnes–Hut on band-like 8³ blocks (sphere soups)")
+        cells = [r for r in spheres if "leaf_block_us_per_point_cells_1t" in r]
+        if cells:
+            ax.plot([r["n"] for r in cells], [r["leaf_block_us_per_point_cells_1t"] for r in cells], "o:", color="C2",
+                    label="the same blocks, far field shared per cell")
         for i, r in enumerate(others):
             mk = "s^Dv"[i % 4]
             ax.plot(r["n"], 1e6 / r["direct_qps_1t"], mk, mfc="none", color="C3")
