@@ -119,8 +119,11 @@ TEST_CASE("band: cells build the band of the per-point reference path to the mod
         REQUIRE(a.band.size() > 1000);
         CHECK(a.band.mass() == Approx(b.band.mass()).epsilon(1e-3));
         // Voxels by coordinate (a band lists them in leaf order).
-        std::map<std::array<int, 3>, std::size_t> inB;
+        std::map<std::array<int, 3>, std::size_t> inA, inB;
+        for (std::size_t i = 0; i < a.band.size(); ++i) inA[{a.band.coord[i].x(), a.band.coord[i].y(), a.band.coord[i].z()}] = i;
         for (std::size_t j = 0; j < b.band.size(); ++j) inB[{b.band.coord[j].x(), b.band.coord[j].y(), b.band.coord[j].z()}] = j;
+        for (const auto& [key, j] : inB)
+            if (!inA.count(key)) CHECK(b.band.mu[j] <= 1.01 * b.stats.etaAbsolute);  // only at the threshold
         std::size_t shared = 0;
         double worstMu = 0;
         for (std::size_t i = 0; i < a.band.size(); ++i) {
@@ -189,7 +192,7 @@ TEST_CASE("band: malloc maps large blocks again after a build, finished or refus
     if (!test::kMemoryChecked) return;  // a sanitizer's allocator replaces malloc's
     const auto mappedBlockAfter = [] {
         constexpr std::size_t kSize = std::size_t(4) << 20;
-        const int before = mallinfo2().hblks;
+        const auto before = mallinfo2().hblks;
         const std::size_t tries = mallinfo2().fordblks / kSize + 2;
         std::vector<std::unique_ptr<char[]>> blocks;  // never written: no page is touched
         for (std::size_t i = 0; i < tries; ++i) {

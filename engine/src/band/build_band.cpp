@@ -293,7 +293,7 @@ struct Rounds {
         checkVoxelBudget(stats.evaluated, options);
         const bool first = stats.levels++ == 0;
         std::vector<BandVoxel> firstRound;
-        // In batches: a point's Gaussians do not depend on the other points of its batch (BarnesHutGpis::evaluate),
+        // In batches: a point's Gaussians do not depend on the other points of its batch (GpisModel::evaluateDense),
         // so neither does the band; the batch bounds the transient memory whatever the size of a BFS level.
         for (std::size_t begin = 0; begin < coords.size(); begin += options.batchVoxels) {
             const std::size_t end = std::min(coords.size(), begin + options.batchVoxels);

@@ -24,6 +24,10 @@ BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOp
         throw ParameterError("the far field's cell width (BarnesHutOptions::cellWidth) must be finite and >= 0 (got " +
                                  numberText(options.cellWidth) + ")",
                              {"BarnesHutOptions::cellWidth"});
+    if (options.cellWidth > 0 && !std::isnormal(options.cellWidth * s))
+        throw ParameterError("the far field's cell width (BarnesHutOptions::cellWidth) times the smoothing is not a normal "
+                             "number (got " + numberText(options.cellWidth) + " × " + numberText(s) + "): use 0 or a width near 12",
+                             {"BarnesHutOptions::cellWidth"});
     if (options.cellNodes < 2 || options.cellNodes > 8)
         throw ParameterError("the cells' Chebyshev nodes per axis (BarnesHutOptions::cellNodes) must be 2 to 8 (got " +
                                  std::to_string(options.cellNodes) + ")",

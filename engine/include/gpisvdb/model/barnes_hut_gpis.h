@@ -34,8 +34,8 @@ struct BarnesHutOptions {
     int cellNodes = 4;     ///< Chebyshev nodes per axis of a cell's interpolant (2…8)
     double cellSeparation = 1;  ///< a node joins a cell's far field only this far from the cell (units of cellWidth,
                                 ///< ≥ 0.5), besides passing the opening tests for every point of the cell
-    std::size_t cellCacheBytes = std::size_t(256) << 20;  ///< cells' tables kept for later batches, at most (bytes);
-                                                          ///< beyond, a cell is planned again in every batch
+    std::size_t cellCacheBytes = std::size_t(64) << 20;  ///< cells' tables kept for later batches, at most (bytes);
+                                                         ///< beyond, a cell is tabulated again in every batch
 };
 
 class BarnesHutGpis final : public GpisModel {
