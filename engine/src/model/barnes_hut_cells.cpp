@@ -126,7 +126,6 @@ struct CellPlanner {
             }
         }
     }
-
 };
 
 struct CellKey {
