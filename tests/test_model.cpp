@@ -93,6 +93,13 @@ std::vector<Vec3d> nearAndFar(const Samples& s, std::size_t count, std::uint64_t
     return xs;
 }
 
+/// Appends a lattice block of 8³ points at spacing h from `corner`, as in a band's VDB leaf.
+void appendBlock(std::vector<Vec3d>& xs, const Vec3d& corner, double h) {
+    for (int i = 0; i < 8; ++i)
+        for (int j = 0; j < 8; ++j)
+            for (int k = 0; k < 8; ++k) xs.push_back(corner + h * Vec3d(i, j, k));
+}
+
 }  // namespace
 
 TEST_CASE("model: regularized winding number is 1 inside and 0 outside (sphere, bunny, elephant)", "[model]") {
@@ -208,10 +215,7 @@ TEST_CASE("model: a packet of points opens the nodes each point opens alone (bat
         const BarnesHutGpis bh(c.samples, 0.4 * c.samples.lengthScale, o);
         std::vector<Vec3d> xs = nearAndFar(c.samples, 1203, 17);
         const double h = 0.3 * c.samples.lengthScale;
-        const Vec3d corner = c.samples.position[c.samples.size() / 3];
-        for (int i = 0; i < 8; ++i)
-            for (int j = 0; j < 8; ++j)
-                for (int k = 0; k < 8; ++k) xs.push_back(corner + h * Vec3d(i, j, k));
+        appendBlock(xs, c.samples.position[c.samples.size() / 3], h);
         const std::vector<ValueGradient> batch = bh.evaluate(xs);
         std::vector<ValueGradient> single(xs.size());
         for (std::size_t i = 0; i < xs.size(); ++i) single[i] = bh.evaluate(xs[i]);
@@ -383,12 +387,7 @@ TEST_CASE("model: cells share the far field within the bound of the direct sum a
         const BarnesHutGpis cells(c.samples, sm, o), points(c.samples, sm);
         std::vector<Vec3d> xs = nearAndFar(c.samples, 200, 31);
         const double h = 0.3 * c.samples.lengthScale;
-        for (std::size_t b : {std::size_t(0), c.samples.size() / 2}) {
-            const Vec3d corner = c.samples.position[b];
-            for (int i = 0; i < 8; ++i)
-                for (int j = 0; j < 8; ++j)
-                    for (int k = 0; k < 8; ++k) xs.push_back(corner + h * Vec3d(i, j, k));
-        }
+        for (std::size_t b : {std::size_t(0), c.samples.size() / 2}) appendBlock(xs, c.samples.position[b], h);
         const std::vector<ValueGradient> got = cells.evaluateDense(xs);
         std::vector<ValueGradient> single(xs.size());
         for (std::size_t i = 0; i < xs.size(); ++i) single[i] = points.evaluate(xs[i]);

@@ -210,39 +210,41 @@ std::vector<ValueGradient> BarnesHutGpis::evaluateInCells(const std::vector<Vec3
         }
         return std::shared_ptr<const CellTable>(made);
     };
+    // One packet of a cell's points: the rest of the tree from the cell's roots, plus the interpolated far field.
+    const auto packet = [&](std::size_t first, std::size_t end, const CellTable& table, const Vec3d& lo) {
+        const int count = int(std::min<std::size_t>(kLanes, end - first));
+        double x[3][kLanes], mean[4][kLanes] = {}, cov[4][4][kLanes] = {};
+        for (int l = 0; l < kLanes; ++l)
+            for (int d = 0; d < 3; ++d) x[d][l] = xs[keys[first + std::size_t(std::min(l, count - 1))].index][d];
+        if (!table.roots.empty()) traversePacket(table.roots.data(), table.roots.size(), x, mean, cov);
+        for (int l = 0; l < count; ++l) {
+            const std::uint32_t i = keys[first + std::size_t(l)].index;
+            double sums[kParts] = {};
+            table.interpolate(xs[i], lo, width, cheb, sums);
+            ValueGradient& o = out[i];
+            int q = 0;
+            for (int a = 0; a < 4; ++a) o.mean[a] = mean[a][l] + sums[q++];
+            for (int a = 0; a < 4; ++a)
+                for (int b = a; b < 4; ++b) o.cov(a, b) = o.cov(b, a) = cov[a][b][l] + sums[q++];
+            detail::finish(o);
+        }
+    };
     // === Per cell, in parallel: its table, then its points in packets (in parallel too: a batch may hold few cells)
     constexpr std::size_t kBlock = 256;  // cells between progress reports
     for (std::size_t b = 0; b < cells; b += kBlock) {
         progress.checkInterrupt();
         progress.update("evaluate", double(starts[b]) / double(xs.size()));
-        const std::size_t e = std::min(cells, b + kBlock);
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(b, e, 1), [&](const tbb::blocked_range<std::size_t>& r) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(b, std::min(cells, b + kBlock), 1), [&](const auto& r) {
             for (std::size_t c = r.begin(); c != r.end(); ++c) {
                 progress.checkInterruptAt(c, 8);
                 const Key& k0 = keys[starts[c]];
                 const Vec3d lo = width * Vec3d(double(k0.cell[0]), double(k0.cell[1]), double(k0.cell[2]));
                 const std::shared_ptr<const CellTable> table = tableOf(k0, lo);
                 const std::size_t packets = (starts[c + 1] - starts[c] + kLanes - 1) / kLanes;
-                tbb::parallel_for(tbb::blocked_range<std::size_t>(0, packets, 4), [&](const tbb::blocked_range<std::size_t>& pr) {
+                tbb::parallel_for(tbb::blocked_range<std::size_t>(0, packets, 4), [&](const auto& pr) {
                     for (std::size_t p = pr.begin(); p != pr.end(); ++p) {
                         progress.checkInterruptAt(p, 32);
-                        const std::size_t first = starts[c] + p * kLanes;
-                        const int count = int(std::min<std::size_t>(kLanes, starts[c + 1] - first));
-                        double x[3][kLanes], mean[4][kLanes] = {}, cov[4][4][kLanes] = {};
-                        for (int l = 0; l < kLanes; ++l)
-                            for (int d = 0; d < 3; ++d) x[d][l] = xs[keys[first + std::size_t(std::min(l, count - 1))].index][d];
-                        if (!table->roots.empty()) traversePacket(table->roots.data(), table->roots.size(), x, mean, cov);
-                        for (int l = 0; l < count; ++l) {
-                            const std::uint32_t i = keys[first + std::size_t(l)].index;
-                            double sums[kParts] = {};
-                            table->interpolate(xs[i], lo, width, cheb, sums);
-                            ValueGradient& o = out[i];
-                            int q = 0;
-                            for (int a = 0; a < 4; ++a) o.mean[a] = mean[a][l] + sums[q++];
-                            for (int a = 0; a < 4; ++a)
-                                for (int bb = a; bb < 4; ++bb) o.cov(a, bb) = o.cov(bb, a) = cov[a][bb][l] + sums[q++];
-                            detail::finish(o);
-                        }
+                        packet(starts[c] + p * kLanes, starts[c + 1], *table, lo);
                     }
                 });
             }
