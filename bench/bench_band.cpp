@@ -1,10 +1,12 @@
 // Band figures (issue "Kac–Rice fields ... narrow band"): expected area Σ μ h³ against σ on the unit sphere,
 // band size N against σ and η on the bunny (paper Fig. 7 top), BFS against the scan (Fig. 7 bottom), μ+T
-// throughput on 1 and 2 threads, bytes per band voxel; and (--part bound only) what looser Barnes–Hut opening ratios
-// would buy: band time against the model's error, the bound on what its expansions can give (docs/benchmarks.md).
-// Usage: bench_band [--part area|fig7|scan|scanfine|throughput|all|bound] [--out bench/results/band.json] [--data DIR]
+// throughput on 1 and 2 threads, bytes per band voxel, the cost per band voxel against n (growth); and (--part
+// bound only) what looser Barnes–Hut opening ratios would buy: band time against the model's error, the bound on
+// what its expansions can give (docs/benchmarks.md).
+// Usage: bench_band [--part area|fig7|scan|scanfine|throughput|growth|all|bound] [--out bench/results/band.json] [--data DIR]
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -12,6 +14,7 @@
 #include <tbb/global_control.h>
 
 #include "gpisvdb/band/build_band.h"
+#include "gpisvdb/band/default_band.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/accuracy.h"
@@ -56,7 +59,7 @@ int main(int argc, char** argv) {
         else if (a == "--out" && i + 1 < argc) out = argv[++i];
         else if (a == "--data" && i + 1 < argc) data = argv[++i];
         else {
-            std::cerr << "usage: bench_band [--part area|fig7|scan|scanfine|throughput|all|bound] [--out FILE.json] [--data DIR]\n";
+            std::cerr << "usage: bench_band [--part area|fig7|scan|scanfine|throughput|growth|all|bound] [--out FILE.json] [--data DIR]\n";
             return 2;
         }
     }
@@ -207,6 +210,55 @@ int main(int argc, char** argv) {
             report["throughput"].push_back(row);
             std::ofstream(out) << report.dump(2) << "\n";
         }
+    }
+    if (part == "growth" || part == "all") {
+        // === Issue 17 item 3, the cost per band voxel against n: the bands of sphere soups of 1 280 … 1.31e6 samples
+        // (σ_rel 0.5, s = 0.4ℓ) on 2 threads, the default band (buildDefaultBand) with cells and without
+        // (cellWidth = 0) side by side. At twice the default voxel size (resolutionScale 2, h ≈ 0.29ℓ), because at
+        // the default the 1.31e6-sample band holds ≈ 1.5e8 voxels (≈ 19 GB); this one holds 1.9e7 (≈ 6.6 GB peak).
+        report["growth"] = nlohmann::json::array();
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        for (int level = 3; level <= 8; ++level) {
+            const Samples samples = soupSamples(icosphere(level), {0.5}).samples;
+            DefaultBandOptions options;
+            options.resolutionScale = 2;
+            nlohmann::json row = {{"input", "sphere_l" + std::to_string(level)}, {"n", samples.size()}, {"threads", 2},
+                                  {"resolution_scale", options.resolutionScale}};
+            for (const std::string path : {"", "_packets"}) {
+                BarnesHutOptions bo;
+                if (!path.empty()) bo.cellWidth = 0;
+                const BarnesHutGpis model(samples, 0.4 * samples.lengthScale, bo);
+                const auto start = Clock::now();
+                const DefaultBand d = buildDefaultBand(model, samples, options);
+                const double sec = seconds(start);
+                const BandStats& st = d.result.stats;
+                row["h_over_l"] = d.options.voxelSize / samples.lengthScale;
+                row["voxels"] = d.result.band.size();
+                row["evaluated"] = st.evaluated;
+                row["seconds" + path] = sec;
+                row["us_per_voxel" + path] = 1e6 * sec / double(d.result.band.size());
+                row["model_us_per_evaluated" + path] = 1e6 * st.modelSeconds / double(st.evaluated);
+                row["mass" + path] = d.result.band.mass();
+                if (path.empty()) {
+                    row["cell_cache_bytes"] = model.cellCacheBytes();
+                    row["cell_cache_limit"] = model.cellCacheLimit();
+                    row["cell_cache_estimate"] = d.estimate.memory.parts.back().second;
+                }
+            }
+            row["speedup_vs_packets"] = row["seconds_packets"].get<double>() / row["seconds"].get<double>();
+            std::cout << row.dump() << std::endl;
+            report["growth"].push_back(row);
+            std::ofstream(out) << report.dump(2) << "\n";
+        }
+        // At 1e4 samples: log-interpolated between 5 120 and 20 480 (levels 4 and 5).
+        const auto& g = report["growth"];
+        const double t = std::log(1e4 / 5120.0) / std::log(4.0);
+        for (const std::string key : {"us_per_voxel", "model_us_per_evaluated", "us_per_voxel_packets", "model_us_per_evaluated_packets"}) {
+            const double at1e4 = std::exp((1 - t) * std::log(g[1][key].get<double>()) + t * std::log(g[2][key].get<double>()));
+            report["growth_ratio_vs_1e4"][key] = g[5][key].get<double>() / at1e4;
+        }
+        std::cout << report["growth_ratio_vs_1e4"].dump() << std::endl;
+        std::ofstream(out) << report.dump(2) << "\n";
     }
     if (part == "bound") {
         // === The band at looser opening ratios (β, and the covariance's ratio in units of β; default 6 and 2), 1 and

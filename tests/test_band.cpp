@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <map>
 #include <malloc.h>
@@ -113,7 +114,7 @@ TEST_CASE("band: cells build the band of the per-point reference path to the mod
         REQUIRE(BarnesHutOptions{}.cellWidth > 0);
         const PerPointModel reference(model);
         BandOptions o;
-        o.voxelSize = sigma == 0.5 ? 0.15 : 0.3;
+        o.voxelSize = sigma == 0.5 ? 0.2 : 0.3;
         const BandResult a = buildBand(model, f.samples, o), b = buildBand(reference, f.samples, o);
         INFO("sigma " << sigma << ": " << a.band.size() << " and " << b.band.size() << " voxels");
         REQUIRE(a.band.size() > 1000);
@@ -140,6 +141,54 @@ TEST_CASE("band: cells build the band of the per-point reference path to the mod
         CHECK(b.band.size() - shared <= b.band.size() / 1000);
         CHECK(shared >= a.band.size() - a.band.size() / 1000);
     }
+}
+
+TEST_CASE("band: the model's cell tables stay within their cache, which holds the band's cells, and the estimate counts them", "[band]") {
+    // The default cache (BarnesHutOptions::kAutoCellCache) has room for every cell within one cell of a sample's, at
+    // least 64 MB; the band's estimate counts the tables it expects, 1.5 per cell holding a sample (docs/memory.md#band).
+    for (double sigma : {0.5, 1.0}) {
+        const Fixture f = bunny(sigma);
+        const BarnesHutGpis& model = static_cast<const BarnesHutGpis&>(*f.model);
+        const double expected = model.expectedDenseCacheBytes();
+        REQUIRE(model.cellCacheLimit() >= std::size_t(64) << 20);
+        REQUIRE(model.cellCacheBytes() == 0);
+        const DefaultBand d = buildDefaultBand(model, f.samples);
+        const auto& parts = d.estimate.memory.parts;
+        const auto counted = std::find_if(parts.begin(), parts.end(), [](const auto& p) { return p.first == "the model's tables"; });
+        REQUIRE(counted != parts.end());
+        CHECK(counted->second == expected);
+        const double held = double(model.cellCacheBytes());
+        INFO("sigma " << sigma << ": expected " << expected << " B, held " << held << " B, limit " << model.cellCacheLimit() << " B");
+        CHECK(held <= double(model.cellCacheLimit()));
+        CHECK(held >= 0.5 * expected);
+        CHECK(held <= 2.0 * expected);
+        // A table kept is a table not made again: a second band adds none, and is the same band.
+        const BandResult again = buildBand(model, f.samples, d.options);
+        CHECK(double(model.cellCacheBytes()) == held);
+        CHECK(again.band.mu == d.result.band.mu);
+    }
+    // An explicit cap is the cap; with cellWidth = 0 nothing is kept.
+    const Fixture f = bunny(1.0);
+    BarnesHutOptions capped, none;
+    capped.cellCacheBytes = 12345;
+    none.cellWidth = 0;
+    CHECK(BarnesHutGpis(f.samples, 0.4 * f.samples.lengthScale, capped).cellCacheLimit() == 12345);
+    const BarnesHutGpis off(f.samples, 0.4 * f.samples.lengthScale, none);
+    CHECK(off.cellCacheLimit() == 0);
+    CHECK(off.expectedDenseCacheBytes() == 0);
+    // A limit below the tables alone is refused before any voxel is evaluated, naming the limit: no voxel size fits.
+    const BarnesHutGpis fresh(f.samples, 0.4 * f.samples.lengthScale);
+    DefaultBandOptions tight;
+    tight.maxMemory = 0.5 * fresh.expectedDenseCacheBytes();
+    REQUIRE(tight.maxMemory > 0);
+    try {
+        buildDefaultBand(fresh, f.samples, tight);
+        FAIL("no MemoryLimitError");
+    } catch (const MemoryLimitError& e) {
+        CHECK_THAT(e.what(), Catch::Contains("cell tables alone"));
+        CHECK(e.parameters() == std::vector<std::string>{"DefaultBandOptions::maxMemory"});
+    }
+    CHECK(fresh.cellCacheBytes() == 0);
 }
 
 TEST_CASE("band: identical voxels and values for 1 and 2 threads", "[band]") {

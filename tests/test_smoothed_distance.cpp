@@ -149,7 +149,7 @@ TEST_CASE("smoothed distance: increases along rays from the centre outside the b
     for (const openvdb::Coord& k : band.coord) R = std::max(R, band.voxelSize * Vec3d(k.x(), k.y(), k.z()).norm());
     SmoothedDistanceOptions o;
     o.alpha = 5;
-    o.gridVoxelSize = 0.15;
+    o.gridVoxelSize = 0.3;  // coarse, yet ≥ 3 grid points beyond R on every ray (checked below)
     o.padding = 1.2;
     const SmoothedDistanceResult r = smoothedDistanceGrid(band, o);
     const openvdb::CoordBBox box = r.grid->evalActiveVoxelBoundingBox();

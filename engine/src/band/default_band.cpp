@@ -77,8 +77,12 @@ DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, con
 
     // === Estimate before allocating (docs/memory.md#band)
     const double baseline = settledResidentBytes();
+    // What the model keeps while it evaluates the band (its cell tables, docs/memory.md#band) does not depend on h.
+    const double modelCache = model.expectedDenseCacheBytes();
     const auto estimate = [&](double hh) {
-        return estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline);
+        BandEstimate e = estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline);
+        if (modelCache > 0) e.memory.parts.emplace_back("the model's tables", modelCache);
+        return e;
     };
     out.estimate = estimate(h);
     const double voxels = out.estimate.voxels;
@@ -90,6 +94,11 @@ DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, con
                                {"BandOptions::voxelSize"});
     // As every stage's: the limit bounds what the band adds to the resident set at its start.
     const double need = out.estimate.memory.stageBytes();
+    if (need > out.maxMemory && modelCache >= out.maxMemory)  // no voxel size fits
+        throw MemoryLimitError("the model's cell tables alone would need about " + numberText(modelCache / 1e6) +
+                                   " MB while the band is built, more than the memory limit (DefaultBandOptions::maxMemory) "
+                                   "allows: raise the limit",
+                               {"DefaultBandOptions::maxMemory"});
     if (need > out.maxMemory) {
         double fits = h;  // the smallest voxel size, in steps of 2 %, whose estimate fits
         for (int k = 0; k < 2000 && estimate(fits).memory.stageBytes() > out.maxMemory; ++k) fits *= 1.02;

@@ -5,10 +5,12 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <tuple>
 #include <tbb/blocked_range.h>
 #include <tbb/concurrent_hash_map.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include "contributions.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
@@ -43,6 +45,12 @@ struct Chebyshev {
         }
     }
 };
+
+/// The lattice index of world coordinate `u` in cell widths (a NaN lands in cell 0; beyond ±9e15 widths, clamped).
+std::int64_t cellIndex(double u) {
+    const double f = std::floor(u);
+    return std::isfinite(f) ? std::int64_t(std::clamp(f, -9e15, 9e15)) : 0;
+}
 
 }  // namespace
 
@@ -147,11 +155,67 @@ struct CellKeyHash {
 struct BarnesHutGpis::CellCache {
     tbb::concurrent_hash_map<CellKey, std::shared_ptr<const CellTable>, CellKeyHash> tables;
     std::atomic<std::size_t> bytes{0};
+    // Sized once, on first use: the cells holding a sample, and the cap in bytes.
+    std::once_flag sized;
+    std::size_t sampleCells = 0, limit = 0;
 };
 
 std::shared_ptr<BarnesHutGpis::CellCache> BarnesHutGpis::newCellCache() { return std::make_shared<CellCache>(); }
 
 std::size_t BarnesHutGpis::cellCacheBytes() const { return cells_ ? cells_->bytes.load() : 0; }
+
+namespace {
+
+/// A table's bytes with `nodes`³ Chebyshev nodes, its roots (≈ 60 measured; 64 counted) and its entry in the map.
+std::size_t tableBytesEstimate(int nodes) {
+    return sizeof(CellTable) + std::size_t(nodes * nodes * nodes * kParts) * sizeof(double) +
+           64 * sizeof(decltype(CellTable::roots)::value_type) + 64;
+}
+
+}  // namespace
+
+// === The cache's size: a band's voxels lie near the samples, so the cells within one cell of a sample's hold them
+// (the band touched 1.1–1.8 cells per sample-holding cell where these hold 3–7: docs/memory.md#band).
+const BarnesHutGpis::CellCache& BarnesHutGpis::sizedCellCache() const {
+    std::call_once(cells_->sized, [&] {
+        const double width = options_.cellWidth * kernel_.smoothing();
+        const auto keyOf = [&](const Vec3d& p) {
+            return CellKey{{cellIndex(p[0] / width), cellIndex(p[1] / width), cellIndex(p[2] / width)}};
+        };
+        const auto less = [](const CellKey& a, const CellKey& b) {
+            return std::tie(a.c[0], a.c[1], a.c[2]) < std::tie(b.c[0], b.c[1], b.c[2]);
+        };
+        std::vector<CellKey> cells(samples_.size());
+        tbb::parallel_for(std::size_t(0), cells.size(), [&](std::size_t i) { cells[i] = keyOf(samples_.position[i]); });
+        tbb::parallel_sort(cells.begin(), cells.end(), less);
+        cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+        cells_->sampleCells = cells.size();
+        if (options_.cellCacheBytes != BarnesHutOptions::kAutoCellCache) {
+            cells_->limit = options_.cellCacheBytes;
+            return;
+        }
+        std::vector<CellKey> near;
+        near.reserve(27 * cells.size());
+        for (const CellKey& k : cells)
+            for (int a = -1; a <= 1; ++a)
+                for (int b = -1; b <= 1; ++b)
+                    for (int c = -1; c <= 1; ++c) near.push_back({{k.c[0] + a, k.c[1] + b, k.c[2] + c}});
+        tbb::parallel_sort(near.begin(), near.end(), less);
+        const std::size_t nearCells = std::size_t(std::unique(near.begin(), near.end()) - near.begin());
+        cells_->limit = std::max(std::size_t(64) << 20, nearCells * tableBytesEstimate(options_.cellNodes));
+    });
+    return *cells_;
+}
+
+std::size_t BarnesHutGpis::cellCacheLimit() const { return cells_ ? sizedCellCache().limit : 0; }
+
+double BarnesHutGpis::expectedDenseCacheBytes() const {
+    if (!cells_) return 0;
+    const CellCache& cache = sizedCellCache();
+    const double expected = std::min(1.5 * double(cache.sampleCells) * double(tableBytesEstimate(options_.cellNodes)),
+                                     double(cache.limit));
+    return std::max(0.0, expected - double(cache.bytes.load()));
+}
 
 std::vector<ValueGradient> BarnesHutGpis::evaluateInCells(const std::vector<Vec3d>& xs, const Progress& progress) const {
     std::vector<ValueGradient> out(xs.size());
@@ -174,10 +238,10 @@ std::vector<ValueGradient> BarnesHutGpis::evaluateInCells(const std::vector<Vec3
         Key& k = keys[i];
         std::uint64_t q[3];
         for (int d = 0; d < 3; ++d) {
+            // (a NaN point lands in cell 0 and yields NaN, as in packets)
             const double u = xs[i][d] / width, f = std::floor(u);
-            const bool finite = std::isfinite(f);  // (a NaN point lands in cell 0 and yields NaN, as in packets)
-            k.cell[d] = finite ? std::int64_t(std::clamp(f, -9e15, 9e15)) : 0;
-            q[d] = finite ? std::uint64_t(std::clamp((u - f) * 1024.0, 0.0, 1023.0)) : 0;
+            k.cell[d] = cellIndex(u);
+            q[d] = std::isfinite(f) ? std::uint64_t(std::clamp((u - f) * 1024.0, 0.0, 1023.0)) : 0;
         }
         k.order = detail::morton(q[0], q[1], q[2]);
         k.index = std::uint32_t(i);
@@ -188,6 +252,7 @@ std::vector<ValueGradient> BarnesHutGpis::evaluateInCells(const std::vector<Vec3
         if (i == 0 || !keys[i].sameCell(keys[i - 1])) starts.push_back(i);
     starts.push_back(keys.size());
     const std::size_t cells = starts.size() - 1;
+    const std::size_t limit = sizedCellCache().limit;
     // A cell's table: kept from an earlier batch, or made now (and kept while the cache has room).
     const auto tableOf = [&](const Key& k, const Vec3d& lo) {
         const CellKey key{{k.cell[0], k.cell[1], k.cell[2]}};
@@ -201,7 +266,7 @@ std::vector<ValueGradient> BarnesHutGpis::evaluateInCells(const std::vector<Vec3
         auto made = std::make_shared<CellTable>(std::move(planner.table));
         made->roots.shrink_to_fit();
         const std::size_t bytes = made->bytes();
-        if (cells_->bytes.fetch_add(bytes) + bytes <= options_.cellCacheBytes) {
+        if (cells_->bytes.fetch_add(bytes) + bytes <= limit) {
             decltype(cells_->tables)::accessor slot;
             if (cells_->tables.insert(slot, key)) slot->second = made;
             else cells_->bytes -= bytes;  // another caller kept it first (the same table)

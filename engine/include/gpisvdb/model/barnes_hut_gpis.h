@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -34,8 +35,11 @@ struct BarnesHutOptions {
     int cellNodes = 4;     ///< Chebyshev nodes per axis of a cell's interpolant (2…8)
     double cellSeparation = 1;  ///< a node joins a cell's far field only this far from the cell (units of cellWidth,
                                 ///< ≥ 0.5), besides passing the opening tests for every point of the cell
-    std::size_t cellCacheBytes = std::size_t(64) << 20;  ///< cells' tables kept for later batches, at most (bytes);
-                                                         ///< beyond, a cell is tabulated again in every batch
+    /// cellCacheBytes' default: room for a table per cell within one cell of a sample's cell (a band's cells,
+    /// docs/model.md#cells), at least 64 MB.
+    static constexpr std::size_t kAutoCellCache = std::numeric_limits<std::size_t>::max();
+    std::size_t cellCacheBytes = kAutoCellCache;  ///< cells' tables kept for later batches, at most (bytes; 0: none);
+                                                  ///< beyond, a cell is tabulated again in every batch
 };
 
 class BarnesHutGpis final : public GpisModel {
@@ -64,8 +68,13 @@ public:
     std::size_t nodeCount() const { return nodes_.size(); }
     /// Bytes held by the tree and its reordered copy of the samples.
     std::size_t memoryBytes() const;
-    /// Bytes held by the cells' tables kept for later batches (cellWidth > 0; at most cellCacheBytes).
+    /// Bytes held by the cells' tables kept for later batches (cellWidth > 0; at most cellCacheLimit()).
     std::size_t cellCacheBytes() const;
+    /// The most bytes of tables kept: BarnesHutOptions::cellCacheBytes, resolved (0 with cellWidth = 0).
+    std::size_t cellCacheLimit() const;
+    /// The tables a band near the samples will add to those held: 1.5 per cell holding a sample (measured 1.1–1.8
+    /// on the bunny, a sphere, a cloud and a mesh with holes, docs/memory.md#band), within cellCacheLimit().
+    double expectedDenseCacheBytes() const override;
 
     /// Tree topology and the opening test: what every visit reads, kept small for the cache.
     struct Node {
@@ -145,6 +154,7 @@ private:
     struct CellCache;  // barnes_hut_cells.cpp
     static std::shared_ptr<CellCache> newCellCache();
     std::shared_ptr<CellCache> cells_;  // filled by const batches: a cell's table depends on nothing but the cell
+    const CellCache& sizedCellCache() const;  // cells_, its cap resolved on first use
 
     Samples samples_;  // reordered so that every node's samples are contiguous
     std::vector<NearSample> nearSamples_;  // samples_ in units of s, in float, in the same order

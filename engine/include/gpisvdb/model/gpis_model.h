@@ -27,6 +27,9 @@ public:
     virtual std::vector<ValueGradient> evaluateDense(const std::vector<Vec3d>& xs, const Progress& progress = {}) const {
         return evaluate(xs, progress);
     }
+    /// Bytes that evaluateDense will keep, beyond what it holds now, while it evaluates a band near the samples: an
+    /// estimate, for the band's memory estimate (docs/memory.md#band). By default none.
+    virtual double expectedDenseCacheBytes() const { return 0; }
     /// The level u of the surface φ = u in this model's convention: 1/2 for the winding number (1 inside, 0 outside).
     virtual double naturalIso() const { return 0.5; }
 };
