@@ -152,7 +152,9 @@ TEST_CASE("band: the model's cell tables stay within their cache, which holds th
         const double expected = model.expectedDenseCacheBytes();
         REQUIRE(model.cellCacheLimit() >= std::size_t(64) << 20);
         REQUIRE(model.cellCacheBytes() == 0);
-        const DefaultBand d = buildDefaultBand(model, f.samples);
+        DefaultBandOptions coarse;  // the band's cells, not its voxels, set the tables: a coarse band has the same
+        coarse.resolutionScale = 3;
+        const DefaultBand d = buildDefaultBand(model, f.samples, coarse);
         const auto& parts = d.estimate.memory.parts;
         const auto counted = std::find_if(parts.begin(), parts.end(), [](const auto& p) { return p.first == "the model's tables"; });
         REQUIRE(counted != parts.end());
