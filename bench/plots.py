@@ -38,7 +38,8 @@ DOCUMENTED = {
     "model": ["build/bin/bench_model --out bench/results/model.json"],
     "band": ["build/bin/bench_band --part %s --out bench/results/band.json" % p
              for p in ("area", "fig7", "scan", "scanfine", "throughput")],
-    "solve": ["build/bin/bench_solve --part all --repeat 3 --out bench/results/solve.json"],
+    "solve": ["build/bin/bench_solve --part all --repeat 3 --out bench/results/solve.json",
+              "build/bin/bench_solve --part table --out bench/results/solve.json"],
     "geodesic": ["build/bin/bench_geodesic --part all --repeat 3 --out bench/results/geodesic.json"],
     "spectrum": ["build/bin/bench_spectrum --data data --scales 1,0.8,0.63 --counts 20,200 "
                  "--methods cholmod --out bench/results/spectrum.json",
@@ -104,16 +105,19 @@ class Context:
         else:
             threads = "not recorded; %s" % THREAD_USE.get(name, "")
         said = data.get("command") if isinstance(data, dict) else None
+        documented = False
         if said and " " in said.strip():  # validate_energy records its bare name only: not a command line
             commands = [said]
         elif run and run.get("commands"):
             commands = run["commands"]
         else:
             commands = DOCUMENTED.get(name, ["not recorded"])
-            commands = [c + ("  (as documented)" if i == len(commands) - 1 else "") for i, c in enumerate(commands)]
+            documented = True
         if parts:
             picked = [c for c in commands if any(p in c for p in parts)]
             commands = picked or commands
+        if documented:
+            commands = [c + ("  (as documented)" if i == len(commands) - 1 else "") for i, c in enumerate(commands)]
         return "machine: %s | threads: %s | command: %s" % (machine, threads, "; ".join(commands))
 
     def save(self, fig, what, name, data, parts=None):
@@ -438,7 +442,7 @@ def plot_solve(ctx, d):
         ax.legend(ncol=2, loc="upper right")
         ax.set_title("Paper Sec. 9 timings (Green's function, h = h*): ours on the bunny vs the paper's\n"
                      "(paper: Xeon W-2245, 8 cores, its own model of Fig. 5; the machines differ)")
-        ctx.save(fig, "solve_sec9", "solve", d)
+        ctx.save(fig, "solve_sec9", "solve", d, parts=("--part table",))
 
     s = d.get("solvers") or []
     if s:
@@ -483,7 +487,7 @@ def plot_solve(ctx, d):
         ax.legend()
         fig.suptitle("Operators and solvers: the Green's function system on bunny bands (default model, η = 0.01)",
                      fontsize=10.5)
-        ctx.save(fig, "solve_pcg", "solve", d)
+        ctx.save(fig, "solve_pcg", "solve", d, parts=("--part all",))
 
 
 def plot_geodesic(ctx, d):

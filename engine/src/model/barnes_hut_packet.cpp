@@ -236,23 +236,7 @@ GPISVDB_LANES_INLINE void sample(const Vec3d& w, double var, const Sym3& N, cons
 
 }  // namespace
 
-// One clone of the traversal per instruction set, chosen once at load time (GCC function multi-versioning):
-// the same binary runs everywhere and uses AVX-512 or AVX2 where the CPU has them. The AVX-512 and AVX2 clones
-// contract multiply-adds into FMA (≈ 9 % faster) and erf and exp come from libmvec's variant for the CPU, so results
-// may differ between CPUs in the last bits (as libm's scalar exp already does between CPUs with and without FMA);
-// on one CPU they never depend on the thread count.
-#ifdef GPISVDB_PACKET_CLONES
-// defined by the build (empty: one clone, for comparisons)
-#elif defined(__SANITIZE_THREAD__)
-// ThreadSanitizer instruments the clones' ifunc resolver, which the loader runs before the sanitizer's runtime is
-// set up (the executable crashed at load): one clone there (the same code, at the baseline instruction set).
-#define GPISVDB_PACKET_CLONES
-#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define GPISVDB_PACKET_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define GPISVDB_PACKET_CLONES
-#endif
-
+// (GPISVDB_PACKET_CLONES, in packet_lanes.h: one clone of the traversal per instruction set.)
 /// The packet traversal, on plain arrays: x[d][l] coordinate d of lane l; out: mean[4][kLanes], cov[4][4][kLanes]
 /// (upper triangle), unnormalised.
 struct PacketTraversal {
