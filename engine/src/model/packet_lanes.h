@@ -19,10 +19,10 @@ namespace {
 #pragma GCC diagnostic ignored "-Wpsabi"  // Lanes never cross a call: every function taking them is inlined
 
 // One clone of the traversal (and of its near field) per instruction set, chosen once at load time (GCC function
-// multi-versioning): the same binary runs everywhere and uses AVX-512 or AVX2 where the CPU has them. The AVX-512 and AVX2 clones
-// contract multiply-adds into FMA (≈ 9 % faster) and erf and exp come from libmvec's variant for the CPU, so results
-// may differ between CPUs in the last bits (as libm's scalar exp already does between CPUs with and without FMA);
-// on one CPU they never depend on the thread count.
+// multi-versioning): the same binary runs everywhere and uses AVX-512 or AVX2 where the CPU has them. The AVX-512 and
+// AVX2 clones contract multiply-adds into FMA (≈ 9 % faster) and erf and exp come from libmvec's variant for the CPU,
+// so results may differ between CPUs in the last bits (as libm's scalar exp already does between CPUs with and without
+// FMA); on one CPU they never depend on the thread count.
 #ifdef GPISVDB_PACKET_CLONES
 // defined by the build (empty: one clone, for comparisons)
 #elif defined(__SANITIZE_THREAD__)
