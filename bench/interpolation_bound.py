@@ -71,9 +71,8 @@ try:
     with open(args.band) as fh:
         for r in json.load(fh).get("throughput", []):
             H = 2 * r["h"] / args.smoothing
-            f, df, peak = PROFILES["gradient"]
             defaults.append({"sigma_rel": r["sigma_rel"], "h": r["h"], "coarse_H_over_s": H,
-                             "cubic_gradient": worst_error(f, df, peak, H, hermite=False),
+                             "cubic_gradient": worst_error(*PROFILES["gradient"], H, hermite=False),
                              "cubic_variance": worst_error(*PROFILES["variance"], H, hermite=False)})
 except (OSError, ValueError, KeyError) as e:
     print("interpolation_bound.py: no default voxel sizes (%s)" % e)
