@@ -8,19 +8,24 @@
 // Pictures (--part pictures): μ on the mean surface of the sphere (σ_rel 1) and of the bunny's ears (σ_rel 0.5
 // unless --sigma), and on a slice through the ears, at h / w_μ = 0.5, 1, 1.25, 1.5, 2, 3 (unless --ratios): one PNG
 // (--picture, default docs/images/resolution_mu.png); --vdb-dir also writes each band for a volume renderer.
+// --values: μ and T at the voxels' centres (point, the default), the voxels' own shares (voxel, kacRiceVoxel), or as
+// `gpisvdb` chooses them (auto: voxel values where h > 1.25 w_μ). `--values auto --ratios 1,2,4,8,16` compares
+// coarse voxel-valued bands with a point-valued reference at h = w_μ (bench/results/coarse_voxels.json).
 // Usage: bench_resolution [--part sphere|bunny|pictures|all] [--sigma S1,S2,...] [--ratios R1,R2,...] [--max-voxels N]
 //        [--max-spectrum-voxels N] [--data DIR] [--out bench/results/resolution.json] [--picture FILE.png]
-//        [--vdb-dir DIR]
+//        [--vdb-dir DIR] [--values point|voxel|auto] [--sphere-level L (icosphere level, default 3)]
 // Rows of the (input, σ) pairs run replace those already in --out; the others stay.
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <openvdb/tools/Interpolation.h>
 #include <sstream>
 
 #include "gpisvdb/band/build_band.h"
+#include "gpisvdb/band/default_band.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
@@ -120,7 +125,8 @@ struct Input {
 };
 
 /// The runs of one (input, σ), coarsest first, then each compared with the finest.
-nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked, double maxVoxels, double maxSpectrumVoxels) {
+nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked, double maxVoxels, double maxSpectrumVoxels,
+                        const std::string& valueMode) {
     const SoupSamples ss = soupSamples(in.soup, {in.sigma});
     const Samples& samples = ss.samples;
     const BarnesHutGpis model(samples, 0.4 * samples.lengthScale);
@@ -155,8 +161,18 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
         // === The band a user gets (η = 0.01)
         BandOptions o;
         o.voxelSize = h;
+        o.voxelValues = valueMode == "voxel" || (valueMode == "auto" && ratio > kMuWidthFactor);
+        row["values"] = o.voxelValues ? "voxel" : "point";
+        // With voxel values the winding model's s follows h, as `gpisvdb` makes it (planDefaultBandFor)
+        const GpisModel* rowModel = &model;
+        std::unique_ptr<BarnesHutGpis> analysis;
+        if (o.voxelValues && 0.4 * samples.lengthScale < kVoxelSmoothing * h) {
+            analysis = std::make_unique<BarnesHutGpis>(samples, kVoxelSmoothing * h);
+            rowModel = analysis.get();
+        }
+        row["smoothing"] = analysis ? kVoxelSmoothing * h : 0.4 * samples.lengthScale;
         auto t = Clock::now();
-        const BandResult br = buildBand(model, samples, o);
+        const BandResult br = buildBand(*rowModel, samples, o);
         const Band& band = br.band;
         row["band_seconds"] = seconds(t);
         row["voxels"] = band.size();
@@ -182,7 +198,7 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
                 BandOptions thick = o;
                 thick.etaRelative = 1e-6;
                 t = Clock::now();
-                const Band b = buildBand(model, samples, thick).band;
+                const Band b = buildBand(*rowModel, samples, thick).band;
                 const double tb = seconds(t);
                 const double e = energyX1(b);
                 lastThickN = double(b.size());
@@ -406,7 +422,8 @@ int main(int argc, char** argv) {
     std::string part = "all", out = "bench/results/resolution.json", data = "data";
     std::vector<double> sigmas{1, 0.5, 0.25}, ratios{0.5, 0.75, 1, 1.25, 1.5, 2, 3};
     double maxVoxels = 1.1e6, maxSpectrumVoxels = 7e5;  // "about 1 M": σ_rel 0.25 at h = w_μ has 1.03 M
-    std::string picture = "docs/images/resolution_mu.png", vdbDir;
+    std::string picture = "docs/images/resolution_mu.png", vdbDir, valueMode = "point";
+    int sphereLevel = 3;  // icosphere(3): 1280 triangles
     bool ratiosGiven = false;
     bool sigmaGiven = false;
     for (int i = 1; i < argc; ++i) {
@@ -420,12 +437,18 @@ int main(int argc, char** argv) {
         else if (a == "--out" && i + 1 < argc) out = argv[++i];
         else if (a == "--picture" && i + 1 < argc) picture = argv[++i];
         else if (a == "--vdb-dir" && i + 1 < argc) vdbDir = argv[++i];
+        else if (a == "--values" && i + 1 < argc) valueMode = argv[++i];
+        else if (a == "--sphere-level" && i + 1 < argc) sphereLevel = std::stoi(argv[++i]);
         else {
             std::cerr << "usage: bench_resolution [--part sphere|bunny|pictures|all] [--sigma S1,S2,...] [--ratios R1,R2,...] "
                          "[--max-voxels N] [--max-spectrum-voxels N] [--data DIR] [--out FILE.json] [--picture FILE.png] "
-                         "[--vdb-dir DIR]\n";
+                         "[--vdb-dir DIR] [--values point|voxel|auto] [--sphere-level L]\n";
             return 2;
         }
+    }
+    if (valueMode != "point" && valueMode != "voxel" && valueMode != "auto") {
+        std::cerr << "bench_resolution: --values must be point, voxel or auto\n";
+        return 2;
     }
     if (part != "sphere" && part != "bunny" && part != "pictures" && part != "all") {
         std::cerr << "bench_resolution: --part must be sphere, bunny, pictures or all\n";
@@ -438,7 +461,7 @@ int main(int argc, char** argv) {
     }
     std::vector<Input> inputs;
     if (part == "sphere" || part == "all")
-        for (double s : sigmas) inputs.push_back({"sphere", icosphere(3), s, true});
+        for (double s : sigmas) inputs.push_back({"sphere", icosphere(sphereLevel), s, true});
     if (part == "bunny" || part == "all")
         for (double s : sigmaGiven ? sigmas : std::vector<double>{0.5}) inputs.push_back({"bunny", *readInput(data + "/bunny.obj").soup, s, false});
     report["machine"] = "2-core x86-64 (project machine), all threads";
@@ -454,7 +477,7 @@ int main(int argc, char** argv) {
         nlohmann::json kept = nlohmann::json::array();
         for (const auto& r : report["runs"])
             if (!(r["input"] == in.name && std::abs(r["sigma_rel"].get<double>() - in.sigma) < 1e-12)) kept.push_back(r);
-        for (const auto& r : runInput(in, ratios, maxVoxels, maxSpectrumVoxels)) kept.push_back(r);
+        for (const auto& r : runInput(in, ratios, maxVoxels, maxSpectrumVoxels, valueMode)) kept.push_back(r);
         report["runs"] = kept;
         std::ofstream(out) << report.dump(2) << "\n";
     }

@@ -76,7 +76,7 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
         sampleVox = sampleVoxels(samples, o.voxelSize);  // checks the voxel size against the extent
         search = samplePartition(ranks, samples, o.voxelSize);
     });
-    const QmcRule rule(o.qmcSamples);
+    const QmcRule rule(bandQmcSamples(o));
     BandStats& stats = out.stats;
 
     // === Seeds: the samples' voxels and their 26 neighbours, each rank its own
@@ -99,7 +99,7 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
     std::size_t evaluatedHere = 0;
     const auto keep = [&](const std::vector<BandVoxel>& values) {
         for (const BandVoxel& v : values) {
-            if (!(v.mu > eta)) continue;
+            if (!keepsVoxel(v, eta, o.voxelValues)) continue;
             kept.push_back(v);
             for (const Coord& d : bfsNeighbourOffsets()) {
                 const Coord n = v.coord + d;
@@ -121,7 +121,8 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
             evaluatedHere += frontier.size();
             for (std::size_t b = 0; b < frontier.size(); b += o.batchVoxels) {
                 std::vector<BandVoxel> values = evaluateBandVoxels(model, frontier, b, std::min(frontier.size(), b + o.batchVoxels),
-                                                                   o.voxelSize, o.iso, rule, progress.interruptOnly(), stats);
+                                                                   o.voxelSize, o.iso, rule, o.voxelValues, progress.interruptOnly(),
+                                                                   stats);
                 if (first) firstLevel.insert(firstLevel.end(), values.begin(), values.end());
                 else keep(values);
             }

@@ -63,12 +63,14 @@ std::string pythonMessage(const Error& error) {
         {"BandOptions::maxAnisotropy", "max_anisotropy"},
         {"BandOptions::maxVoxels", "max_memory"},
         {"DefaultBandOptions::maxMemory", "max_memory"},
+        {"DefaultBandOptions::maxBandVoxels", "max_voxels"},
         {"ResolutionOptions::resolutionScale", "resolution_scale"},
         {"ResolutionOptions::maxAnisotropy", "max_anisotropy"},
         {"NoiseOptions::sigmaRel", "sigma"},
         {"CloudNoiseOptions::sigmaRel", "sigma"},
         {"SoupNoiseOptions::sigmaRel", "sigma"},
         {"ModelOptions::smoothingRel", "smoothing"},
+        {"ModelOptions::noiseSmoothing", "noise_smoothing"},
         {"BarnesHutOptions::beta", "beta"},
         {"TrainingOptions::surfacePoints", "training_points"},
         {"TrainingOptions::offsetRelative", "training_offset"},
@@ -131,11 +133,13 @@ struct Model {
     std::string source;  ///< the file, or "numpy"
 };
 
-ModelOptions modelOptions(double sigma, double smoothing, double beta, bool exact, const std::string& model,
-                          py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise) {
+ModelOptions modelOptions(double sigma, double smoothing, double noiseSmoothing, double beta, bool exact,
+                          const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset,
+                          double labelNoise) {
     ModelOptions o;
     o.sigmaRel = sigma;
     o.smoothingRel = smoothing;
+    o.noiseSmoothing = noiseSmoothing;
     o.barnesHut.beta = beta;
     o.exact = exact;
     if (model == "winding") {
@@ -288,7 +292,8 @@ struct PyBand {
     double taskBytes() const { return std::max(1.0, built.maxMemory - double(band().size()) * band().bytesPerVoxel()); }
 };
 
-PyBand makeBand(const Model& m, std::optional<double> voxelSize, double resolutionScale, std::optional<double> iso, double eta,
+PyBand makeBand(const Model& m, std::optional<double> voxelSize, std::optional<double> resolutionScale,
+                std::optional<double> maxVoxels, const std::string& voxelValues, std::optional<double> iso, double eta,
                 int qmc, double maxAnisotropy, std::optional<double> maxMemory, int threads, py::object progress) {
     PyBand b;
     b.model = m.loaded;
@@ -306,7 +311,13 @@ PyBand makeBand(const Model& m, std::optional<double> voxelSize, double resoluti
     o.band.etaRelative = eta;
     o.band.qmcSamples = qmc;
     o.band.maxAnisotropy = maxAnisotropy;
-    o.resolutionScale = resolutionScale;
+    o.resolutionScale = resolutionScale.value_or(1.0);
+    // As the command line: the budget applies to the default voxel size, and to a given resolution_scale only when
+    // max_voxels is given too.
+    o.maxBandVoxels = maxVoxels ? *maxVoxels : resolutionScale ? 0.0 : kDefaultMaxBandVoxels;
+    if (voxelValues == "point") o.values = VoxelValues::Point;
+    else if (voxelValues == "voxel") o.values = VoxelValues::Voxel;
+    else throw ParameterError("voxel_values must be 'point' or 'voxel' (got '" + voxelValues + "')");
     if (maxMemory) {
         o.maxMemory = *maxMemory;
         if (!(o.maxMemory > 0) || !std::isfinite(o.maxMemory))
@@ -315,7 +326,13 @@ PyBand makeBand(const Model& m, std::optional<double> voxelSize, double resoluti
     const auto start = Clock::now();
     Work work(threads, std::move(progress));
     b.built = work([&](const Progress& progress) {
-        return buildDefaultBand(*m.loaded->model, m.loaded->input.samples, o, progress);
+        const DefaultBandPlan first = planDefaultBand(*m.loaded->model, m.loaded->input.samples, o, progress);
+        const double s = smoothingForPlan(first, *m.loaded);
+        if (!(s > 0)) return buildPlannedBand(*m.loaded->model, m.loaded->input.samples, first, {}, progress);
+        // The band's own model at the analysis scale (docs/band.md#coarse-voxels); the Model keeps its own.
+        b.model = std::make_shared<const LoadedModel>(withSmoothing(*m.loaded, m.options, s, SmoothingSource::VoxelSize));
+        const DefaultBandPlan plan = replanForSmoothing(*b.model->model, b.model->input.samples, o, first, progress);
+        return buildPlannedBand(*b.model->model, b.model->input.samples, plan, {}, progress);
     });
     b.seconds = since(start);
     return b;
@@ -331,10 +348,14 @@ py::dict bandReport(const PyBand& b) {
                    "kind"_a = in.isSoup ? "triangle soup" : "oriented point cloud", "skipped_zero_area"_a = in.degenerateSkipped);
     py::dict parameters(
         "sigma_rel"_a = mo.sigmaRel, "sigma"_a = in.sigma, "smoothing_rel"_a = mo.smoothingRel, "smoothing"_a = b.model->smoothing,
+        "noise_smoothing"_a = mo.noiseSmoothing, "smoothing_set_by"_a = smoothingSourceName(b.model->smoothingSource),
         "model"_a = mo.kind == ModelKind::Regression ? "regression" : "winding", "training_labels"_a = b.model->trainingSize,
         "iso"_a = b.built.options.iso, "eta_rel"_a = b.built.options.etaRelative, "eta"_a = st.etaAbsolute,
         "voxel_size"_a = b.built.options.voxelSize, "h_star"_a = b.built.resolution.hStar, "mu_width"_a = b.built.resolution.muWidth,
         "resolution_scale"_a = b.requested.resolutionScale, "qmc_samples"_a = b.built.options.qmcSamples,
+        "voxel_values"_a = b.built.options.voxelValues ? "voxel" : "point", "max_band_voxels"_a = b.built.maxBandVoxels,
+        "voxel_size_by_budget"_a = b.built.budgeted, "accuracy_voxel_size"_a = b.built.accuracyVoxelSize,
+        "accuracy_voxels"_a = b.built.accuracyVoxels, "voxel_size_note"_a = voxelSizeNote(b.built),
         "beta"_a = mo.barnesHut.beta, "exact"_a = mo.exact, "max_anisotropy"_a = b.built.options.maxAnisotropy,
         "max_memory_bytes"_a = b.built.maxMemory);
     py::dict stages("model"_a = st.modelSeconds, "kac_rice"_a = st.kacRiceSeconds, "search"_a = st.searchSeconds,
@@ -364,6 +385,7 @@ openvdb::MetaMap bandMetadata(const PyBand& b, bool half) {
     meta.insertMeta("sigma", openvdb::DoubleMetadata(in.sigma));
     meta.insertMeta("smoothing_rel", openvdb::DoubleMetadata(mo.smoothingRel));
     meta.insertMeta("smoothing", openvdb::DoubleMetadata(b.model->smoothing));
+    meta.insertMeta("smoothing_set_by", openvdb::StringMetadata(smoothingSourceName(b.model->smoothingSource)));
     meta.insertMeta("model", openvdb::StringMetadata(mo.kind == ModelKind::Regression ? "regression" : "winding"));
     meta.insertMeta("iso", openvdb::DoubleMetadata(b.built.options.iso));
     meta.insertMeta("eta_rel", openvdb::DoubleMetadata(b.built.options.etaRelative));
@@ -371,6 +393,8 @@ openvdb::MetaMap bandMetadata(const PyBand& b, bool half) {
     meta.insertMeta("voxel_size", openvdb::DoubleMetadata(b.built.options.voxelSize));
     meta.insertMeta("h_star", openvdb::DoubleMetadata(b.built.resolution.hStar));
     meta.insertMeta("mu_width", openvdb::DoubleMetadata(b.built.resolution.muWidth));
+    meta.insertMeta("voxel_values", openvdb::StringMetadata(b.built.options.voxelValues ? "voxel" : "point"));
+    meta.insertMeta("voxel_size_set_by_budget", openvdb::BoolMetadata(b.built.budgeted));
     meta.insertMeta("qmc_samples", openvdb::Int32Metadata(b.built.options.qmcSamples));
     meta.insertMeta("beta", openvdb::DoubleMetadata(mo.barnesHut.beta));
     meta.insertMeta("exact", openvdb::BoolMetadata(mo.exact));
@@ -722,7 +746,7 @@ PYBIND11_MODULE(_core, m) {
     // ----------------------------------------------------------------------------------------------- Model
     py::class_<Model>(m, "Model", R"doc(A Gaussian process implicit surface: at every point x, (phi(x), grad phi(x)) is Gaussian.
 
-Model(V, F, sigma=0.5, smoothing=0.4, beta=6.0, exact=False, model='winding', labels=None,
+Model(V, F, sigma=0.5, smoothing=0.4, noise_smoothing=1.2, beta=6.0, exact=False, model='winding', labels=None,
       training_points=300, training_offset=0.5, label_noise=0.05, threads=0)
 
 A triangle soup with Gaussian vertex noise (paper App. B). V: n x 3 vertex positions (world units, any real
@@ -731,6 +755,7 @@ dtype), F: m x 3 vertex indices (integer dtype), counter-clockwise seen from out
 Parameters (as the command line's flags; docs/python.md):
   sigma            vertex noise std, relative to the length scale l (mean edge length) (> 0)
   smoothing        kernel smoothing s, relative to l (regression: to the training spacing) (> 0)
+  noise_smoothing  winding: s is at least this x the samples' median position std (>= 0; 0: smoothing x l alone)
   beta             Barnes-Hut accuracy: a node stands in for its samples beyond beta x its radius (> 1)
   exact            direct O(n) sums instead of Barnes-Hut
   model            'winding' (linearised winding number, surface phi = 0.5) or 'regression' (App. F, phi = 0)
@@ -747,27 +772,27 @@ Example:
   >>> model = gpisvdb.Model(V, F, sigma=0.25)
   >>> model.evaluate(np.zeros((1, 3)))['mu']
 )doc")
-        .def(py::init([](py::handle V, py::handle F, double sigma, double smoothing, double beta, bool exact, const std::string& model,
+        .def(py::init([](py::handle V, py::handle F, double sigma, double smoothing, double noiseSmoothing, double beta, bool exact, const std::string& model,
                          py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise, int threads) {
-                 const ModelOptions o = modelOptions(sigma, smoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                 const ModelOptions o = modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
                  return makeModel(soupInput(V, F), o, threads);
              }),
-             "V"_a, "F"_a, py::kw_only(), "sigma"_a = 0.5, "smoothing"_a = 0.4, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+             "V"_a, "F"_a, py::kw_only(), "sigma"_a = 0.5, "smoothing"_a = 0.4, "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
              "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
              "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
              "threads"_a = 0)
         .def_static(
             "from_cloud",
-            [](py::handle P, py::handle N, py::object sigma, py::object area, double smoothing, double beta, bool exact,
+            [](py::handle P, py::handle N, py::object sigma, py::object area, double smoothing, double noiseSmoothing, double beta, bool exact,
                const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise,
                int threads) {
                 double rel;
                 py::object perPoint;
                 splitCloudSigma(sigma, rel, perPoint);
-                const ModelOptions o = modelOptions(rel, smoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                const ModelOptions o = modelOptions(rel, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
                 return makeModel(cloudInput(P, N, perPoint, area), o, threads);
             },
-            "P"_a, "N"_a, py::kw_only(), "sigma"_a = py::none(), "area"_a = py::none(), "smoothing"_a = 0.4,
+            "P"_a, "N"_a, py::kw_only(), "sigma"_a = py::none(), "area"_a = py::none(), "smoothing"_a = 0.4, "noise_smoothing"_a = kNoiseSmoothing,
             "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding", "labels"_a = py::none(),
             "training_points"_a = TrainingOptions{}.surfacePoints, "training_offset"_a = TrainingOptions{}.offsetRelative,
             "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0,
@@ -780,9 +805,9 @@ area:  None (estimated from the spacing) or n areas per point (world units^2).
 The other keywords as for Model(V, F, ...).)doc")
         .def_static(
             "from_file",
-            [](const std::string& path, double sigma, double smoothing, double beta, bool exact, const std::string& model,
+            [](const std::string& path, double sigma, double smoothing, double noiseSmoothing, double beta, bool exact, const std::string& model,
                py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise, int threads) {
-                const ModelOptions o = modelOptions(sigma, smoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                const ModelOptions o = modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
                 InputData data;
                 {
                     py::gil_scoped_release release;
@@ -790,7 +815,7 @@ The other keywords as for Model(V, F, ...).)doc")
                 }
                 return makeModel(std::move(data), o, threads);
             },
-            "path"_a, py::kw_only(), "sigma"_a = 0.5, "smoothing"_a = 0.4, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+            "path"_a, py::kw_only(), "sigma"_a = 0.5, "smoothing"_a = 0.4, "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
             "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
             "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
             "threads"_a = 0,
@@ -944,13 +969,19 @@ the vertices. Returns (V (n, 3) float64 world units, F (m, 3) int32, {name: valu
                    ", mass " + numberText(b.band().mass()) + ">";
         });
 
-    m.def("band", &makeBand, "model"_a, py::kw_only(), "voxel_size"_a = py::none(), "resolution_scale"_a = 1.0, "iso"_a = py::none(),
+    m.def("band", &makeBand, "model"_a, py::kw_only(), "voxel_size"_a = py::none(), "resolution_scale"_a = py::none(),
+          "max_voxels"_a = py::none(), "voxel_values"_a = "point", "iso"_a = py::none(),
           "eta"_a = BandOptions{}.etaRelative, "qmc"_a = BandOptions{}.qmcSamples, "max_anisotropy"_a = BandOptions{}.maxAnisotropy,
           "max_memory"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
           R"doc(The narrow band of the GPIS with mu, T and the Selling stencils, as `gpisvdb band` builds it (docs/band.md).
 
   voxel_size        h in world units (None: min(h*, 1.25 w_mu), h* = l / max stencil width, w_mu mu's width)
-  resolution_scale  scales the default voxel size (> 0; below 1 is finer; 0.6 for pictures of mu without moire)
+  resolution_scale  scales the default voxel size (> 0; below 1 is finer; 0.6 for pictures of mu without moire;
+                    None: 1)
+  max_voxels        band-voxel budget: a default voxel size that would make more band voxels is raised until the
+                    band holds about this many (0: none; None: 4e6, or none when resolution_scale is given)
+  voxel_values      'point': mu and T at the voxels' centres; 'voxel': each voxel's own share of the expected
+                    surface (the winding model's s at least 2h)
   iso               iso-value u of the surface phi = u (None: 0.5 winding, 0 regression)
   eta               band threshold: keep mu > eta x (median mu at the samples' voxels) (> 0)
   qmc               QMC points S for mu and T (>= 1)

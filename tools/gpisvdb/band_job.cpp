@@ -36,7 +36,19 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
     cmd.add_option("--resolution-scale", f.resolutionScale,
                    "scales the default voxel size, h* and " + k + " w_mu alike (> 0; below 1 is finer: 0.6 for pictures of mu without moire)")
         ->excludes(vs)
+        ->each([&f](const std::string&) { f.resolutionScaleGiven = true; })
         ->capture_default_str();
+    cmd.add_option("--max-voxels", f.maxBandVoxels,
+                   "band-voxel budget: a default voxel size that would make more band voxels is raised until the band "
+                   "holds about this many (0: none; not applied to --voxel-size, nor to --resolution-scale unless given "
+                   "with it)")
+        ->each([&f](const std::string&) { f.maxBandVoxelsGiven = true; })
+        ->capture_default_str();
+    const std::map<std::string, VoxelValues> values = {{"point", VoxelValues::Point}, {"voxel", VoxelValues::Voxel}};
+    cmd.add_option("--voxel-values", f.voxelValues,
+                   "mu and T at the voxels' centres (point, the default) or as each voxel's own share of the expected "
+                   "surface (voxel; the winding model's s is then at least 2h)")
+        ->transform(CLI::CheckedTransformer(values));
     cmd.add_option("--qmc", f.band.qmcSamples, "QMC points S for mu and T (>= 1)")->capture_default_str();
     cmd.add_option("--max-anisotropy", f.band.maxAnisotropy, "T is regularised to sqrt(lmax/lmin) <= this (>= 1)")
         ->capture_default_str();
@@ -54,22 +66,35 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     DefaultBandOptions options;
     options.band = flags.band;
     options.resolutionScale = flags.resolutionScale;
+    options.maxBandVoxels = flags.resolutionScaleGiven && !flags.maxBandVoxelsGiven ? 0.0 : flags.maxBandVoxels;
+    options.values = flags.voxelValues;
     options.maxMemory = flags.maxMemory.empty() ? 0 : parseBytes(flags.maxMemory);
-    options.build = build;
-    job.model = loadModel(data, modelOptions(flags.model));
+    const ModelOptions mo = modelOptions(flags.model);
+    job.model = loadModel(data, mo);
     job.secondsModel = since(start);
     const auto tBand = Clock::now();
-    DefaultBand built = buildDefaultBand(*job.model.model, job.model.input.samples, options, progress);
+    const DefaultBandPlan plan = planDefaultBandFor(job.model, mo, options, progress);
+    DefaultBand built = buildPlannedBand(*job.model.model, job.model.input.samples, plan, build, progress);
     job.secondsBand = since(tBand);
     job.resolution = built.resolution;
     job.options = built.options;
     job.maxMemory = built.maxMemory;
     job.estimate = built.estimate;
+    job.accuracyVoxelSize = built.accuracyVoxelSize;
+    job.accuracyVoxels = built.accuracyVoxels;
+    job.budgeted = built.budgeted;
+    job.maxBandVoxels = built.maxBandVoxels;
+    job.voxelSizeNote = voxelSizeNote(built);
     job.result = std::move(built.result);
     job.bandBytesPerVoxel = job.result.band.bytesPerVoxel();
     job.warnings = bandWarnings(job, flags);
-    if (!flags.model.quiet)
+    if (!flags.model.quiet) {
+        if (job.budgeted)
+            std::cerr << "note: the band-voxel budget (--max-voxels " << std::llround(job.maxBandVoxels)
+                      << ") set the voxel size: the accuracy-driven " << numberText(job.accuracyVoxelSize) << " would make about "
+                      << numberText(std::round(job.accuracyVoxels)) << " band voxels; " << job.voxelSizeNote << "\n";
         for (const std::string& w : job.warnings) std::cerr << "warning: " << w << "\n";
+    }
     return job;
 }
 
@@ -192,6 +217,7 @@ openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     meta.insertMeta("sigma", openvdb::DoubleMetadata(in.sigma));
     meta.insertMeta("smoothing_rel", openvdb::DoubleMetadata(flags.model.smoothingRel));
     meta.insertMeta("smoothing", openvdb::DoubleMetadata(job.model.smoothing));
+    meta.insertMeta("smoothing_set_by", openvdb::StringMetadata(smoothingSourceName(job.model.smoothingSource)));
     meta.insertMeta("model", openvdb::StringMetadata(flags.model.model));
     if (job.model.trainingSize) {
         meta.insertMeta("training_labels", openvdb::Int64Metadata(openvdb::Int64(job.model.trainingSize)));
@@ -204,6 +230,8 @@ openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     meta.insertMeta("voxel_size", openvdb::DoubleMetadata(job.options.voxelSize));
     meta.insertMeta("h_star", openvdb::DoubleMetadata(job.resolution.hStar));
     meta.insertMeta("mu_width", openvdb::DoubleMetadata(job.resolution.muWidth));
+    meta.insertMeta("voxel_values", openvdb::StringMetadata(job.options.voxelValues ? "voxel" : "point"));
+    meta.insertMeta("voxel_size_set_by_budget", openvdb::BoolMetadata(job.budgeted));
     meta.insertMeta("qmc_samples", openvdb::Int32Metadata(job.options.qmcSamples));
     meta.insertMeta("beta", openvdb::DoubleMetadata(flags.model.beta));
     meta.insertMeta("exact", openvdb::BoolMetadata(flags.model.exact));
@@ -237,10 +265,16 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
                    {"skipped_zero_area", in.degenerateSkipped}}},
         {"parameters", {{"sigma_rel", flags.model.sigmaRel}, {"sigma", in.sigma},
                         {"smoothing_rel", flags.model.smoothingRel}, {"smoothing", job.model.smoothing},
+                        {"noise_smoothing", flags.model.noiseSmoothing},
+                        {"smoothing_set_by", smoothingSourceName(job.model.smoothingSource)},
                         {"model", flags.model.model}, {"training_labels", job.model.trainingSize},
                         {"iso", job.options.iso}, {"eta_rel", job.options.etaRelative}, {"eta", st.etaAbsolute},
                         {"voxel_size", job.options.voxelSize}, {"h_star", job.resolution.hStar},
                         {"mu_width", job.resolution.muWidth}, {"resolution_scale", flags.resolutionScale},
+                        {"voxel_values", job.options.voxelValues ? "voxel" : "point"},
+                        {"max_band_voxels", job.maxBandVoxels},
+                        {"voxel_size_by_budget", job.budgeted}, {"accuracy_voxel_size", job.accuracyVoxelSize},
+                        {"accuracy_voxels", job.accuracyVoxels}, {"voxel_size_note", job.voxelSizeNote},
                         {"qmc_samples", job.options.qmcSamples}, {"beta", flags.model.beta}, {"exact", flags.model.exact},
                         {"max_anisotropy", job.options.maxAnisotropy}, {"max_memory_bytes", job.maxMemory}}},
         {"band", {{"voxels", band.size()}, {"voxel_size", job.options.voxelSize},

@@ -21,6 +21,10 @@ struct BandFlags {
     ModelFlags model;
     BandOptions band;
     double resolutionScale = 1.0;
+    bool resolutionScaleGiven = false;  ///< --resolution-scale was given: the budget applies only with --max-voxels
+    double maxBandVoxels = kDefaultMaxBandVoxels;  ///< --max-voxels (0: none)
+    bool maxBandVoxelsGiven = false;
+    VoxelValues voxelValues = VoxelValues::Point;  ///< --voxel-values
     std::string maxMemory;  ///< "8G", "512M", "1e9"; empty: half the RAM
     std::string report;     ///< JSON report path; empty: none
     VdbWriteOptions vdb;    ///< --half
@@ -34,6 +38,10 @@ struct BandJob {
     BandOptions options;  ///< as used (voxel size resolved)
     BandResult result;
     BandEstimate estimate;  ///< size and memory estimated before the build
+    double accuracyVoxelSize = 0, accuracyVoxels = 0;  ///< DefaultBand's: h before the budget, and its voxels
+    bool budgeted = false;                             ///< the band-voxel budget set the voxel size
+    double maxBandVoxels = 0;                          ///< the budget as used (0: none)
+    std::string voxelSizeNote;                         ///< voxelSizeNote(): h / w_μ, the values, their accuracy
     double maxMemory = 0;
     double secondsModel = 0, secondsBand = 0;
     double bandBytesPerVoxel = 0;  ///< the band's, as built (a spill frees some of its channels later)

@@ -160,6 +160,10 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
         ->capture_default_str();
     if (withModel) {
         app.add_option("--smoothing", f.smoothingRel, "kernel smoothing s, relative to ℓ (regression: to the training spacing) (> 0)")->capture_default_str();
+        app.add_option("--noise-smoothing", f.noiseSmoothing,
+                       "winding model: s is at least this × the samples' median position std, so that it follows the noise "
+                       "where samples are denser than it (>= 0; 0: --smoothing × ℓ alone)")
+            ->capture_default_str();
         app.add_option("--beta", f.beta, "Barnes-Hut accuracy: a node stands in for its samples beyond beta × its radius (2 × beta for the covariance near the query) (> 1)")
             ->capture_default_str();
         app.add_flag("--exact", f.exact, "use the direct O(n) sum instead of Barnes-Hut");
@@ -190,7 +194,9 @@ std::string errorMessage(const Error& error) {
         {"ResolutionOptions::maxAnisotropy", "--max-anisotropy"},
         {"NoiseOptions::sigmaRel", "--sigma"},
         {"ModelOptions::smoothingRel", "--smoothing"},
+        {"ModelOptions::noiseSmoothing", "--noise-smoothing"},
         {"DefaultBandOptions::maxMemory", "--max-memory"},
+        {"DefaultBandOptions::maxBandVoxels", "--max-voxels"},
         {"CloudNoiseOptions::sigmaRel", "--sigma"},
         {"SoupNoiseOptions::sigmaRel", "--sigma"},
         {"BarnesHutOptions::beta", "--beta"},
@@ -244,6 +250,7 @@ ModelOptions modelOptions(const ModelFlags& flags) {
     ModelOptions o;
     o.sigmaRel = flags.sigmaRel;
     o.smoothingRel = flags.smoothingRel;
+    o.noiseSmoothing = flags.noiseSmoothing;
     o.kind = flags.model == "regression" ? ModelKind::Regression : ModelKind::Winding;
     o.exact = flags.exact;
     o.barnesHut.beta = flags.beta;

@@ -16,6 +16,7 @@ namespace gpisvdb::cli {
 struct ModelFlags {
     double sigmaRel = 0.5;      ///< --sigma: vertex/point noise std relative to ℓ
     double smoothingRel = 0.4;  ///< --smoothing: kernel smoothing s relative to ℓ
+    double noiseSmoothing = kNoiseSmoothing;  ///< --noise-smoothing: s at least this × the median position std
     double beta = BarnesHutOptions{}.beta;  ///< --beta: Barnes–Hut opening criterion
     bool exact = false;         ///< --exact: direct O(n) sums instead of Barnes–Hut
     std::string model = "winding";  ///< --model: winding (paper Eq. 5) or regression (App. F)

@@ -10,6 +10,7 @@
 #include "gpisvdb/core/errors.h"
 #include "../core/heap_reuse.h"
 #include "gpisvdb/kacrice/kac_rice.h"
+#include "gpisvdb/kacrice/kac_rice_voxel.h"
 #include "gpisvdb/stencil/resolution.h"
 #include "gpisvdb/stencil/selling.h"
 
@@ -195,7 +196,7 @@ BandResult finish(FoundVoxels&& found, const BandOptions& o, const BandStats& st
 
 std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<Coord>& coords, std::size_t begin,
                                           std::size_t end, double h, double iso, const QmcRule& rule,
-                                          const Progress& progress, BandStats& stats) {
+                                          bool voxelValues, const Progress& progress, BandStats& stats) {
     auto t = Clock::now();
     const std::size_t n = end - begin;
     std::vector<Vec3d> xs(n);
@@ -209,10 +210,11 @@ std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vec
     std::vector<BandVoxel> out(n);
     tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
         progress.checkInterruptAt(i);
-        const SurfaceDensity d = kacRice(z[i], iso, rule);
+        const SurfaceDensity d = voxelValues ? kacRiceVoxel(z[i], iso, h, rule) : kacRice(z[i], iso, rule);
         const double g = d.meanGradient.norm();
+        const bool crossed = voxelValues && meanSurfaceCrosses(z[i], iso, h);
         out[i] = {coords[begin + i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
-                  g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero()};
+                  g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero(), crossed};
     });
     stats.kacRiceSeconds += since(t);
     return out;
@@ -283,7 +285,7 @@ struct Rounds {
     double eta = 0;
 
     Rounds(const GpisModel& m, const Samples& samples, const BandOptions& o, const Progress& p)
-        : model(m), options(o), progress(p), rule(o.qmcSamples), sampleVox(sampleVoxels(samples, o.voxelSize)),
+        : model(m), options(o), progress(p), rule(bandQmcSamples(o)), sampleVox(sampleVoxels(samples, o.voxelSize)),
           found(o.maxAnisotropy) {}
 
     template <class Kept>
@@ -298,7 +300,7 @@ struct Rounds {
         for (std::size_t begin = 0; begin < coords.size(); begin += options.batchVoxels) {
             const std::size_t end = std::min(coords.size(), begin + options.batchVoxels);
             std::vector<BandVoxel> values = evaluateBandVoxels(model, coords, begin, end, options.voxelSize, options.iso,
-                                                           rule, progress.interruptOnly(), stats);
+                                                               rule, options.voxelValues, progress.interruptOnly(), stats);
             if (first) {
                 firstRound.insert(firstRound.end(), values.begin(), values.end());
                 continue;
@@ -316,7 +318,7 @@ private:
     void keep(const std::vector<BandVoxel>& values, Kept& kept) {
         std::vector<std::uint32_t> index;
         for (std::size_t i = 0; i < values.size(); ++i)
-            if (values[i].mu > eta) index.push_back(std::uint32_t(i));
+            if (keepsVoxel(values[i], eta, options.voxelValues)) index.push_back(std::uint32_t(i));
         auto t = Clock::now();
         found.append(values, index);
         stats.kacRiceSeconds += since(t);  // the Selling stencils, with μ and T's other channels

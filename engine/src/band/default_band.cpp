@@ -30,20 +30,24 @@ double bandWriteBytes(double voxels) {
     return voxels * (kFoundBytesPerVoxel + 4.0 * kIndexTreeBytesPerVoxel);
 }
 
-BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes) {
+BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes,
+                          bool voxelValues) {
     BandEstimate e;
-    // === Voxel counts: the shell where μ > η (Resolution::bandVolume) and about half a voxel on either side; the
-    // build also evaluates the rejected shell, a voxel or two on each side (measured, docs/memory.md#band).
-    e.voxels = (bandVolume + kBandShellVoxels * area * h) / (h * h * h);
-    e.evaluated = (bandVolume + 4.0 * area * h) / (h * h * h);
+    // === Voxel counts: the shell where μ > η (Resolution::bandVolume) and about half a voxel on either side (with
+    // voxel values, the reach of the cubes' cross-sections); the build also evaluates the rejected shell, a voxel or
+    // two on each side (measured, docs/memory.md#band).
+    const double shell = voxelValues ? kVoxelValueShellVoxels : kBandShellVoxels;
+    const double volume = voxelValues ? kVoxelValueBandVolume * bandVolume : bandVolume;
+    e.voxels = (volume + shell * area * h) / (h * h * h);
+    e.evaluated = (volume + (shell + 3.0) * area * h) / (h * h * h);
     e.memory.baselineBytes = baselineBytes;
     const double build = bandBuildBytes(e.voxels, e.evaluated, batchVoxels), write = bandWriteBytes(e.voxels);
     e.memory.parts = {{build >= write ? "building the band" : "writing the band as .vdb", std::max(build, write)}};
     return e;
 }
 
-DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options,
-                             const Progress& progress) {
+DefaultBandPlan planDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options,
+                                const Progress& progress) {
     const BandOptions& bo = options.band;
     if (!(bo.etaRelative > 0) || !std::isfinite(bo.etaRelative))
         throw ParameterError("the band threshold η (BandOptions::etaRelative) must be finite and > 0 (got " +
@@ -52,11 +56,15 @@ DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, con
     if (!(bo.voxelSize >= 0) || !std::isfinite(bo.voxelSize))
         throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0 (got " + numberText(bo.voxelSize) + ")",
                              {"BandOptions::voxelSize"});
+    if (!(options.maxBandVoxels == 0 || (options.maxBandVoxels >= 1000 && std::isfinite(options.maxBandVoxels))))
+        throw ParameterError("the band-voxel budget (DefaultBandOptions::maxBandVoxels) must be 0 (none) or a finite "
+                             "number >= 1000 (got " + numberText(options.maxBandVoxels) + ")",
+                             {"DefaultBandOptions::maxBandVoxels"});
     if (!(options.maxMemory >= 0) || !std::isfinite(options.maxMemory))
         throw ParameterError("the memory limit (DefaultBandOptions::maxMemory) must be finite and > 0 bytes (got " +
                                  numberText(options.maxMemory) + ")",
                              {"DefaultBandOptions::maxMemory"});
-    DefaultBand out;
+    DefaultBandPlan out;
     out.maxMemory = options.maxMemory > 0 ? options.maxMemory : 0.5 * physicalMemory();
 
     // === Resolution (paper Eq. 25 and μ's width)
@@ -72,18 +80,31 @@ DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, con
     out.resolution = chooseResolution(model, samples, ro, progress.interruptOnly());
     out.options = bo;
     out.options.iso = iso;
-    if (!(out.options.voxelSize > 0)) out.options.voxelSize = out.resolution.h;
-    const double h = out.options.voxelSize;
+    const bool given = out.options.voxelSize > 0;
+    double h = given ? out.options.voxelSize : out.resolution.h;
+    const bool voxelValues = options.values == VoxelValues::Voxel;
 
     // === Estimate before allocating (docs/memory.md#band)
     const double baseline = settledResidentBytes();
     // What the model keeps while it evaluates the band (its cell tables, docs/memory.md#band) does not depend on h.
     const double modelCache = model.expectedDenseCacheBytes();
     const auto estimate = [&](double hh) {
-        BandEstimate e = estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline);
+        BandEstimate e = estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline,
+                                      voxelValues);
         if (modelCache > 0) e.memory.parts.emplace_back("the model's tables", modelCache);
         return e;
     };
+    out.accuracyVoxelSize = h;
+    out.accuracyVoxels = estimate(h).voxels;
+
+    // === The band-voxel budget (docs/band.md#budget): the default h raised, in steps of 1 %, until the band fits
+    out.maxBandVoxels = given ? 0.0 : options.maxBandVoxels;
+    if (!given && options.maxBandVoxels > 0 && out.accuracyVoxels > options.maxBandVoxels) {
+        for (int k = 0; k < 5000 && estimate(h).voxels > options.maxBandVoxels; ++k) h *= 1.01;
+        out.budgeted = true;
+    }
+    out.options.voxelSize = h;
+    out.options.voxelValues = voxelValues;
     out.estimate = estimate(h);
     const double voxels = out.estimate.voxels;
     if (!(voxels <= kMaxBandVoxels))  // absurd whatever the memory: refused before the model is evaluated
@@ -111,9 +132,85 @@ DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, con
     // The backstop while building, should the estimate be low: evaluated voxels are ≈ 1.4–1.6 band voxels (measured).
     const double perVoxel = need / std::max(1.0, voxels);
     out.options.maxVoxels = std::size_t(kEvaluatedPerBandVoxel * out.maxMemory / perVoxel);
-    out.result = options.build ? options.build(model, samples, out.options, progress)
-                               : buildBand(model, samples, out.options, progress);
     return out;
+}
+
+DefaultBand buildPlannedBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan,
+                             const BandBuilder& build, const Progress& progress) {
+    DefaultBand out;
+    static_cast<DefaultBandPlan&>(out) = plan;
+    out.result = build ? build(model, samples, out.options, progress) : buildBand(model, samples, out.options, progress);
+    return out;
+}
+
+DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options,
+                             const Progress& progress) {
+    return buildPlannedBand(model, samples, planDefaultBand(model, samples, options, progress), options.build, progress);
+}
+
+double smoothingForPlan(const DefaultBandPlan& plan, const LoadedModel& model) {
+    const double want = kVoxelSmoothing * plan.options.voxelSize;
+    return plan.options.voxelValues && model.trainingSize == 0 && model.smoothing < want ? want : 0.0;
+}
+
+DefaultBandPlan replanForSmoothing(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options,
+                                   const DefaultBandPlan& first, const Progress& progress) {
+    DefaultBandOptions again = options;
+    again.band.voxelSize = first.options.voxelSize;
+    again.band.iso = first.options.iso;
+    again.values = VoxelValues::Voxel;
+    DefaultBandPlan second = planDefaultBand(model, samples, again, progress);
+    second.accuracyVoxelSize = first.accuracyVoxelSize;
+    second.accuracyVoxels = first.accuracyVoxels;
+    second.budgeted = first.budgeted;
+    second.maxBandVoxels = first.maxBandVoxels;
+    return second;
+}
+
+DefaultBandPlan planDefaultBandFor(LoadedModel& model, const ModelOptions& modelOptions, const DefaultBandOptions& options,
+                                   const Progress& progress) {
+    const DefaultBandPlan first = planDefaultBand(*model.model, model.input.samples, options, progress);
+    const double s = smoothingForPlan(first, model);
+    if (!(s > 0)) return first;
+    // === The analysis scale: s follows h, and the band is planned again at the same h (docs/band.md#coarse-voxels)
+    model = withSmoothing(model, modelOptions, s, SmoothingSource::VoxelSize);
+    return replanForSmoothing(*model.model, model.input.samples, options, first, progress);
+}
+
+namespace {
+
+/// What the centres' values gave on the unit-sphere soup at σ_rel 0.5 against h = w_μ (bench/results/coarse_points.json,
+/// docs/benchmarks.md#coarse-voxels): up to each h / w_μ, the expected area's, the Dirichlet energy's and the l = 1
+/// gap's error, in %.
+struct MeasuredAccuracy {
+    double ratio;
+    const char* errors;
+};
+constexpr MeasuredAccuracy kPointAccuracy[] = {
+    {1.25, "within 0.5 % (the default's own rule)"},
+    {2, "area and energy within 0.1 %, l = 1 gap -0.8 %"},
+    {4, "area +2.2 %, energy +2.2 %, l = 1 gap -4.9 %"},
+    {8, "area +13 %, energy +36 %, l = 1 gap -25 %"},
+};
+
+}  // namespace
+
+std::string voxelSizeNote(const DefaultBandPlan& band) {
+    const double h = band.options.voxelSize, w = band.resolution.muWidth;
+    std::string note = "voxel size " + numberText(h);
+    if (!(w > 0)) return note;
+    const double ratio = h / w;
+    note += " = " + numberText(std::round(ratio * 100) / 100) + " w_mu (mu's width " + numberText(w) + ")";
+    if (!band.options.voxelValues) {
+        note += "; mu and T are the values at the voxels' centres";
+        for (const MeasuredAccuracy& m : kPointAccuracy)
+            if (ratio <= m.ratio * (1 + 1e-9))
+                return note + " (measured on a sphere up to h/w_mu = " + numberText(m.ratio) + ": " + m.errors +
+                       "; docs/benchmarks.md#coarse-voxels)";
+        return note + " (coarser than any h/w_mu measured, 8: docs/benchmarks.md#coarse-voxels)";
+    }
+    return note + "; mu and T are the voxels' own shares, s at least 2h (their accuracy by h/w_mu: "
+                  "docs/benchmarks.md#coarse-voxels)";
 }
 
 }  // namespace gpisvdb

@@ -125,6 +125,7 @@ InputSamples makeSamples(const InputData& input, const NoiseOptions& options) {
         CloudSamples s = cloudSamples(*input.cloud, co);
         out.samples = std::move(s.samples);
         out.sigma = s.sigma;
+        out.absoluteNoise = !input.cloud->sigmas.empty();
     } else {
         throw InputError(input.path + ": holds neither a mesh nor a point cloud");
     }

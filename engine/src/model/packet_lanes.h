@@ -1,13 +1,14 @@
 #pragma once
 // The SIMD lanes of the Barnes–Hut packets (docs/model.md#packets): one double per point of a packet, GCC vector
-// extensions, and erf and exp in lanes from glibc's libmvec. An implementation header of barnes_hut_packet.cpp, its
-// only includer: its helpers are inlined into each instruction-set clone of the traversal there.
+// extensions, and erf and exp in lanes from glibc's libmvec (core/vector_math.h). An implementation header of
+// barnes_hut_packet.cpp, its only includer: its helpers are inlined into each instruction-set clone of the traversal.
 #include <cmath>
 #include <cstdint>
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
 
+#include "core/vector_math.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
 
 namespace gpisvdb {
@@ -67,46 +68,8 @@ struct LaneKernel {
     Lanes F1, F2, F3, F4;
 };
 
-// === erf and exp for 8 lanes at once: glibc's vector math library (libmvec), at the widest width the CPU has,
-// chosen once. Elsewhere (other compilers or architectures) a plain loop over the scalar functions.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-extern "C" {
-__m128d _ZGVbN2v_erf(__m128d);
-__m128d _ZGVbN2v_exp(__m128d);
-__m256d _ZGVdN4v_erf(__m256d);
-__m256d _ZGVdN4v_exp(__m256d);
-__m512d _ZGVeN8v_erf(__m512d);
-__m512d _ZGVeN8v_exp(__m512d);
-}
-
-void erfExpSse(const double* x, const double* y, double* ex, double* ey) {
-    for (int k = 0; k < kLanes; k += 2) {
-        _mm_storeu_pd(ex + k, _ZGVbN2v_erf(_mm_loadu_pd(x + k)));
-        _mm_storeu_pd(ey + k, _ZGVbN2v_exp(_mm_loadu_pd(y + k)));
-    }
-}
-__attribute__((target("avx2"))) void erfExpAvx2(const double* x, const double* y, double* ex, double* ey) {
-    for (int k = 0; k < kLanes; k += 4) {
-        _mm256_storeu_pd(ex + k, _ZGVdN4v_erf(_mm256_loadu_pd(x + k)));
-        _mm256_storeu_pd(ey + k, _ZGVdN4v_exp(_mm256_loadu_pd(y + k)));
-    }
-}
-__attribute__((target("avx512f"))) void erfExpAvx512(const double* x, const double* y, double* ex, double* ey) {
-    _mm512_storeu_pd(ex, _ZGVeN8v_erf(_mm512_loadu_pd(x)));
-    _mm512_storeu_pd(ey, _ZGVeN8v_exp(_mm512_loadu_pd(y)));
-}
-using ErfExp = void (*)(const double*, const double*, double*, double*);
-const ErfExp erfExp = [] {
-    __builtin_cpu_init();
-    if (__builtin_cpu_supports("avx512f")) return ErfExp(erfExpAvx512);
-    if (__builtin_cpu_supports("avx2")) return ErfExp(erfExpAvx2);
-    return ErfExp(erfExpSse);
-}();
-#else
-void erfExp(const double* x, const double* y, double* ex, double* ey) {
-    for (int k = 0; k < kLanes; ++k) ex[k] = std::erf(x[k]), ey[k] = std::exp(y[k]);
-}
-#endif
+// === erf and exp for 8 lanes at once: core/vector_math.h's libmvec lanes, chosen once for the CPU.
+GPISVDB_LANES_INLINE void erfExp(const double* x, const double* y, double* ex, double* ey) { erfExp8(x, y, ex, ey); }
 
 /// The symmetric 4×4 accumulators: the mean (γ, ∇γ) and the upper triangle of the covariance.
 struct LaneSums {

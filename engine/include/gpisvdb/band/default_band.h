@@ -5,9 +5,11 @@
 #include <cstddef>
 #include <functional>
 #include <limits>
+#include <string>
 
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/core/memory_estimate.h"
+#include "gpisvdb/model/load_model.h"
 #include "gpisvdb/stencil/resolution.h"
 
 namespace gpisvdb {
@@ -36,6 +38,18 @@ constexpr double kBatchBytesPerVoxel = 320;
 /// voxel while building and writing, 5e8 voxels already need 90 GB.
 constexpr double kMaxBandVoxels = 5e8;
 
+/// The default band-voxel budget (DefaultBandOptions::maxBandVoxels): the default voxel size is raised until the band
+/// holds about this many voxels (docs/band.md#budget): what scans up to 1e5 points build in well under a minute on
+/// 2 cores (docs/benchmarks.md#coarse-voxels).
+constexpr double kDefaultMaxBandVoxels = 4e6;
+
+/// With voxel values (BandOptions::voxelValues) the band is (kVoxelValueBandVolume·bandVolume + kVoxelValueShellVoxels·
+/// area·h)/h³ voxels: the cubes' cross-sections reach ½ h ‖n‖₁ past their centres on each side (1.5 h on average over
+/// the directions), and the μ profile's tails beyond them are thinner than μ's own (fitted to eight bands of sphere
+/// clouds at h/w_μ 1.5–3, within 5 %).
+constexpr double kVoxelValueShellVoxels = 1.5;
+constexpr double kVoxelValueBandVolume = 0.6;
+
 /// A band's size and memory, estimated before the model is evaluated at a single voxel.
 struct BandEstimate {
     double voxels = 0;     ///< band voxels: (bandVolume + kBandShellVoxels·area·h) / h³
@@ -51,8 +65,17 @@ double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels);
 double bandWriteBytes(double voxels);
 
 /// The estimate for a band of cross-section `bandVolume` and surface `area` (Resolution::bandVolume and area; world
-/// units³ and ²) at voxel size h, batch size and the resident set before the build (bytes).
-BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes);
+/// units³ and ²) at voxel size h, batch size and the resident set before the build (bytes); `voxelValues` as
+/// BandOptions::voxelValues.
+BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes,
+                          bool voxelValues = false);
+
+/// How a band's μ and T are sampled (BandOptions::voxelValues). Point is the default: on the sphere soup it keeps the
+/// expected area, energy and spectrum closer than voxel values up to h = 4 w_μ (docs/benchmarks.md#coarse-voxels).
+enum class VoxelValues {
+    Point,  ///< the values at the voxels' centres (paper Eq. 11, 16)
+    Voxel,  ///< the voxels' own shares (kacRiceVoxel), the winding model's s at least kVoxelSmoothing·h
+};
 
 /// What builds the band once its options are resolved: buildBand by default; a distributed build (mpi/) returns this
 /// process's part of the band with the whole band's statistics.
@@ -65,18 +88,65 @@ struct DefaultBandOptions {
     BandOptions band;
     double resolutionScale = 1.0;  ///< c of ResolutionOptions (> 0): scales the default voxel size
     double maxMemory = 0;          ///< bytes the band may need while it is built (> 0; 0: half the physical memory)
+    /// The band-voxel budget: when band.voxelSize is 0 and the default h would make a band of more voxels than this
+    /// (estimated), h is raised until it holds about this many (≥ 1000; 0: no budget). Ignored for a given voxel size.
+    double maxBandVoxels = kDefaultMaxBandVoxels;
+    VoxelValues values = VoxelValues::Point;  ///< sets band.voxelValues
     BandBuilder build;             ///< empty: buildBand
 };
 
-struct DefaultBand {
+/// What buildDefaultBand will build, decided before the model is evaluated at a single voxel (planDefaultBand).
+struct DefaultBandPlan {
     Resolution resolution;  ///< h*, w_μ and the default h at the samples
-    BandOptions options;    ///< as used: voxel size and iso resolved, maxVoxels from the memory limit
+    BandOptions options;    ///< as used: voxel size, values and iso resolved, maxVoxels from the memory limit
     double maxMemory = 0;   ///< the memory limit as used, bytes
     BandEstimate estimate;  ///< size and memory estimated before the build
+    /// The voxel size that accuracy alone asks for (resolution.h, or band.voxelSize when given) and the band voxels
+    /// estimated there; budgeted is true when the band-voxel budget raised h above it.
+    double accuracyVoxelSize = 0;
+    double accuracyVoxels = 0;
+    bool budgeted = false;
+    double maxBandVoxels = 0;  ///< the budget as used (0: none)
+};
+
+struct DefaultBand : DefaultBandPlan {
     BandResult result;
 };
 
-/// Resolution, estimate (estimateBand), then buildBand. Throws ParameterError for bad options, MemoryLimitError
+/// h / w_μ of a band and whether its values are the voxels' own shares, in words for reports and messages, with where
+/// the docs give their accuracy at each h / w_μ (docs/benchmarks.md#coarse-voxels).
+std::string voxelSizeNote(const DefaultBandPlan& band);
+
+/// Resolution, the band-voxel budget and the estimate (estimateBand), with buildDefaultBand's checks and errors: what a
+/// default band will be, without building it (gpisvdb info's forecast).
+DefaultBandPlan planDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options = {},
+                                const Progress& progress = {});
+
+/// With voxel values on a winding model, s is at least this × h: the voxel values take (φ, ∇φ) as linear across a
+/// voxel (kacRiceVoxel), while γ ≈ Φ(−d/s) is linear only within ≈ s/2 of the surface. Measured on dense sphere clouds
+/// (docs/band.md#coarse-voxels): the expected area loses 2.2 % at h = 0.92 s, 0.9 % at 0.59 s, 0.4 % at 0.44 s.
+constexpr double kVoxelSmoothing = 2.0;
+
+/// The smoothing that a plan asks of a winding model of smoothing s: kVoxelSmoothing·h where the plan takes voxel
+/// values and s is below it; 0 when s may stay (and for the regression model, whose smoothing is its own).
+double smoothingForPlan(const DefaultBandPlan& plan, const LoadedModel& model);
+
+/// `first` planned again for a model rebuilt at smoothingForPlan(first, …): at first's voxel size and iso, with voxel
+/// values, its budget and accuracy fields kept.
+DefaultBandPlan replanForSmoothing(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options,
+                                   const DefaultBandPlan& first, const Progress& progress = {});
+
+/// planDefaultBand for a loaded model; where the plan takes voxel values at an h with s < kVoxelSmoothing·h (winding
+/// model), `model` is rebuilt from its samples at s = kVoxelSmoothing·h (withSmoothing) and the band planned again at
+/// that h, its budget and accuracy fields kept from the first plan.
+DefaultBandPlan planDefaultBandFor(LoadedModel& model, const ModelOptions& modelOptions, const DefaultBandOptions& options,
+                                   const Progress& progress = {});
+
+/// The band of a plan (planDefaultBand): `build` (empty: buildBand) with the plan's options.
+DefaultBand buildPlannedBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan,
+                             const BandBuilder& build = {}, const Progress& progress = {});
+
+/// planDefaultBand, then buildBand (or options.build). Throws ParameterError for bad options, MemoryLimitError
 /// (naming DefaultBandOptions::maxMemory and BandOptions::voxelSize, with the voxel size that would fit) when the
 /// estimate exceeds kMaxBandVoxels voxels or maxMemory bytes, and Cancelled when `progress` asks to stop.
 DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options = {},

@@ -36,6 +36,7 @@ struct InputSamples {
     double sigma = 0;                   ///< absolute σ (world units)
     std::size_t degenerateSkipped = 0;  ///< zero-area triangles left out
     bool isSoup = false;
+    bool absoluteNoise = false;         ///< a cloud with its own σ per point (world units), not σ = sigmaRel·ℓ
 };
 
 /// Samples of either kind of input with its noise model.

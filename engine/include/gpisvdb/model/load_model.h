@@ -18,9 +18,18 @@ enum class ModelKind {
     Regression,  ///< GP regression on labels (App. F), surface at φ = 0
 };
 
+/// The default ModelOptions::noiseSmoothing: with s ≥ 1.2 σ_p a sphere cloud's expected area stays within 1.2 % from 1e4
+/// to 1e6 points at a fixed noise in world units, where s = 0.4 ℓ alone gave 14.1 and 24.5 at 1e4 and 1e5 against
+/// 4π (docs/math.md#smoothing, docs/benchmarks.md#coarse-voxels).
+constexpr double kNoiseSmoothing = 1.2;
+
 struct ModelOptions {
     double sigmaRel = 0.5;      ///< vertex/point noise std σ relative to ℓ (> 0)
     double smoothingRel = 0.4;  ///< kernel smoothing s relative to ℓ (regression: to the training spacing) (> 0)
+    /// Winding model of a cloud with its own σ per point (InputSamples::absoluteNoise): s is at least this × σ_p, the
+    /// samples' median position std (world units), so that s follows the noise where the points are denser than it
+    /// (≥ 0; 0: s = smoothingRel·ℓ alone). Where σ = sigmaRel·ℓ, s/σ is fixed by the two. docs/math.md#smoothing.
+    double noiseSmoothing = kNoiseSmoothing;
     ModelKind kind = ModelKind::Winding;
     bool exact = false;                ///< winding: direct O(n) sums instead of Barnes–Hut
     BarnesHutOptions barnesHut;        ///< winding, not exact: the tree's accuracy
@@ -29,15 +38,31 @@ struct ModelOptions {
     double labelNoise = RegressionGpisOptions{}.labelNoise;  ///< regression: std of the labels (≥ 0)
 };
 
+/// Which term set a winding model's s (docs/math.md#smoothing).
+enum class SmoothingSource {
+    LengthScale,  ///< smoothingRel·ℓ
+    Noise,        ///< noiseSmoothing·σ_p
+    VoxelSize,    ///< kVoxelSmoothing·h, for a band of voxel values (band/default_band.h)
+};
+const char* smoothingSourceName(SmoothingSource source);  ///< "length scale", "noise", "voxel size"
+
 struct LoadedModel {
     InputSamples input;
     double smoothing = 0;          ///< absolute s, world units
+    SmoothingSource smoothingSource = SmoothingSource::LengthScale;
     std::size_t trainingSize = 0;  ///< labelled points of the regression model (0: winding model)
     std::unique_ptr<GpisModel> model;
 };
 
-/// The input's samples with σ = sigmaRel·ℓ, then the model. Throws ParameterError naming the ModelOptions (or the
+/// σ_p: the median over the samples of their position std √v_i, world units.
+double medianPositionStd(const Samples& samples);
+
+/// The input's samples with σ = sigmaRel·ℓ, then the model (winding: s = smoothingRel·ℓ, or noiseSmoothing·σ_p where
+/// that is larger and the cloud gives its own σ). Throws ParameterError naming the ModelOptions (or the
 /// noise options') field on a bad parameter, InputError on unusable input.
 LoadedModel loadModel(const InputData& data, const ModelOptions& options = {});
+
+/// The same samples in a winding model (as options.exact asks) of smoothing s (world units, > 0), set by `source`.
+LoadedModel withSmoothing(const LoadedModel& model, const ModelOptions& options, double s, SmoothingSource source);
 
 }  // namespace gpisvdb
