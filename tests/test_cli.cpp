@@ -1332,3 +1332,36 @@ TEST_CASE("cli: the band-voxel budget sets the default voxel size and says so, a
     CHECK_THAT(r.err, Catch::Contains("--max-voxels"));
     CHECK_FALSE(fs::exists(refused));
 }
+
+TEST_CASE("cli: info forecasts the default band, its voxel size exactly and its voxels and peak within 25 %, or says it would be refused", "[cli]") {
+    const std::string cloud = sphereCloud("forecast_cloud.xyz", 3000, 0.02);
+    for (const std::string flags : {" --max-voxels 20000", " --max-voxels 20000 --voxel-values voxel", " --sigma 1"}) {
+        const std::string input = flags == " --sigma 1" ? gpisvdb::test::dataPath("bunny.obj") : cloud;
+        INFO(input << flags);
+        const std::string info = temp("forecast_info.json"), band = temp("forecast_band.json");
+        const Run i = run("info " + input + flags + " --report " + info);
+        INFO(i.err);
+        REQUIRE(i.code == 0);
+        CHECK_THAT(i.out, Catch::Contains("default band (what `gpisvdb band` with these flags would build"));
+        CHECK_THAT(i.out, Catch::Contains("w_mu") && Catch::Contains("voxels:") && Catch::Contains("memory:") &&
+                              Catch::Contains("time:"));
+        REQUIRE(run("band " + input + flags + " -o " + temp("forecast.vdb") + " --report " + band + " --quiet").code == 0);
+        const nlohmann::json f = nlohmann::json::parse(std::ifstream(info))["forecast"];
+        const nlohmann::json b = nlohmann::json::parse(std::ifstream(band));
+        CHECK(f["voxel_size"].get<double>() == b["parameters"]["voxel_size"].get<double>());
+        CHECK(f["voxel_size_by_budget"].get<bool>() == b["parameters"]["voxel_size_by_budget"].get<bool>());
+        CHECK(f["smoothing"].get<double>() == b["parameters"]["smoothing"].get<double>());
+        CHECK(f["voxels"].get<double>() == Approx(b["band"]["voxels"].get<double>()).epsilon(0.25));
+        CHECK(f["peak_bytes"].get<double>() == Approx(b["memory"]["peak_rss_bytes"].get<double>()).epsilon(0.25));
+        CHECK(f["seconds"].get<double>() > f["band_seconds"].get<double>());
+        CHECK(f["band_seconds"].get<double>() > 0);
+    }
+    // A band that would be refused is forecast as refused (info succeeds); --no-forecast builds no model.
+    Run r = run("info " + cloud + " --voxel-size 0.0001");
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("default band: refused: the band would need about"));
+    r = run("info " + cloud + " --no-forecast");
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("samples:      3000"));
+    CHECK_THAT(r.out, !Catch::Contains("default band"));
+}

@@ -59,16 +59,21 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
                  "also write the Selling stencils (selling_weight_0..5, selling_offset_0..5), from which L can be rebuilt");
 }
 
-BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress, const BandBuilder& build) {
-    const auto start = Clock::now();
-    BandJob job;
-    job.inputPath = data.path;
+DefaultBandOptions defaultBandOptions(const BandFlags& flags) {
     DefaultBandOptions options;
     options.band = flags.band;
     options.resolutionScale = flags.resolutionScale;
     options.maxBandVoxels = flags.resolutionScaleGiven && !flags.maxBandVoxelsGiven ? 0.0 : flags.maxBandVoxels;
     options.values = flags.voxelValues;
     options.maxMemory = flags.maxMemory.empty() ? 0 : parseBytes(flags.maxMemory);
+    return options;
+}
+
+BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress, const BandBuilder& build) {
+    const auto start = Clock::now();
+    BandJob job;
+    job.inputPath = data.path;
+    const DefaultBandOptions options = defaultBandOptions(flags);
     const ModelOptions mo = modelOptions(flags.model);
     job.model = loadModel(data, mo);
     job.secondsModel = since(start);

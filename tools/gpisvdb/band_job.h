@@ -54,6 +54,9 @@ struct BandJob {
 /// with T regularised by the anisotropy cap.
 std::vector<std::string> bandWarnings(const BandJob& job, const BandFlags& flags);
 
+/// The engine's options for a default band from the flags (reads nothing; parses --max-memory).
+DefaultBandOptions defaultBandOptions(const BandFlags& flags);
+
 /// Model, resolution, memory check, band: the first half of every band command.
 /// `build` replaces buildBand (a distributed build, mpi/); a rank other than 0 passes quiet flags.
 BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress, const BandBuilder& build = {});

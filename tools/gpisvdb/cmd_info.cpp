@@ -1,55 +1,128 @@
-// gpisvdb info INPUT: what the input holds once read, and the absolute noise and smoothing it implies.
+// gpisvdb info INPUT: what the input holds once read, the absolute noise and smoothing it implies, and the forecast
+// of the default band that `gpisvdb band` would build with the same flags (docs/band.md#forecast).
+#include <chrono>
+#include <cmath>
 #include <iostream>
+#include <thread>
 
+#include <tbb/global_control.h>
+
+#include "band_job.h"
 #include "commands.h"
-#include "common.h"
-#include "memory_stage.h"
+#include "gpisvdb/band/band_forecast.h"
 
 namespace gpisvdb::cli {
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+/// The model loaded and the band planned as `gpisvdb band` does (both timed), then the pilot. A band that the memory
+/// limit or the voxel cap refuses is a forecast too: the report's `refused` holds the message.
+nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, const BandFlags& flags) {
+    const auto start = Clock::now();
+    const ModelOptions mo = modelOptions(flags.model);
+    LoadedModel model = loadModel(data, mo);
+    const double modelSeconds = since(start);
+    const auto tPlan = Clock::now();
+    nlohmann::json out = {{"read_seconds", readSeconds}, {"model_seconds", modelSeconds},
+                          {"threads", tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)}};
+    const Progress progress = makeProgress(true);  // no bar; Ctrl-C stops the pilot
+    DefaultBandPlan plan;
+    try {
+        plan = planDefaultBandFor(model, mo, defaultBandOptions(flags), progress);
+    } catch (const MemoryLimitError& e) {
+        out["refused"] = e.what();
+        std::cout << "default band: refused: " << e.what() << "\n";
+        return out;
+    }
+    const double planSeconds = since(tPlan);
+    const BandForecast f = forecastBand(*model.model, model.input.samples, plan, {}, progress);
+    const double total = readSeconds + modelSeconds + planSeconds + f.buildSeconds + f.writeSeconds;
+    out.update({{"voxel_size", plan.options.voxelSize}, {"voxel_size_by_budget", plan.budgeted},
+                {"accuracy_voxel_size", plan.accuracyVoxelSize}, {"accuracy_voxels", plan.accuracyVoxels},
+                {"max_band_voxels", plan.maxBandVoxels}, {"mu_width", plan.resolution.muWidth},
+                {"voxel_size_note", voxelSizeNote(plan)}, {"smoothing", model.smoothing},
+                {"smoothing_set_by", smoothingSourceName(model.smoothingSource)},
+                {"voxels", f.voxels}, {"evaluated_voxels", f.evaluated}, {"peak_bytes", f.peakBytes},
+                {"pilot_voxels", f.pilotVoxels}, {"pilot_seconds", f.pilotSeconds},
+                {"resolution_seconds", planSeconds}, {"band_seconds", f.buildSeconds},
+                {"write_seconds", f.writeSeconds}, {"seconds", total}});
+    const auto millions = [](double n) { return numberText(std::round(n / 1e3) / 1e3) + " M"; };
+    std::cout << "default band (what `gpisvdb band` with these flags would build; a forecast, docs/band.md#forecast):\n"
+              << "  " << voxelSizeNote(plan) << "\n";
+    if (plan.budgeted)
+        std::cout << "  budget:      the band-voxel budget (--max-voxels " << std::llround(plan.maxBandVoxels)
+                  << ") set the voxel size; accuracy alone asks " << numberText(plan.accuracyVoxelSize) << " for about "
+                  << millions(plan.accuracyVoxels) << " voxels\n";
+    std::cout << "  smoothing:   " << numberText(model.smoothing) << " (set by the " << smoothingSourceName(model.smoothingSource) << ")\n"
+              << "  voxels:      about " << millions(f.voxels) << " (" << millions(f.evaluated) << " evaluated)\n"
+              << "  memory:      about " << numberText(f.peakBytes / 1e9) << " GB at its peak\n"
+              << "  time:        about " << numberText(total) << " s on " << out["threads"].get<int>() << " threads: reading "
+              << numberText(readSeconds) << " s, model " << numberText(modelSeconds) << " s and resolution "
+              << numberText(planSeconds) << " s (as measured now), band " << numberText(f.buildSeconds) << " s, .vdb "
+              << numberText(f.writeSeconds) << " s\n";
+    return out;
+}
+
+}  // namespace
+
 void addInfo(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("info", "describe an input: samples, length scale, bounding box, what was skipped");
-    auto input = std::make_shared<std::string>();
-    auto flags = std::make_shared<ModelFlags>();
-    auto stage = std::make_shared<StageFlags>();
-    cmd->add_option("INPUT", *input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
-    cmd->add_option("--sigma", flags->sigmaRel, "noise std σ relative to ℓ (> 0)")->capture_default_str();
-    cmd->add_option("--smoothing", flags->smoothingRel, "kernel smoothing s relative to ℓ (> 0)")->capture_default_str();
-    addStageFlags(*cmd, *stage);
-    cmd->footer("Example:\n  gpisvdb info bunny.obj --sigma 0.25");
-    cmd->callback([&action, input, flags, stage] {
-        action = [input, flags, stage] {
-            if (!(flags->smoothingRel > 0)) throw ParameterError("--smoothing must be > 0");
-            const double limit = memoryLimit(*stage);
-            const InputData data = readInput(*input);
+    auto* cmd = app.add_subcommand("info", "describe an input (samples, length scale, bounding box, what was skipped) "
+                                           "and forecast the default band: voxel size, voxels, memory, time");
+    struct Args {
+        std::string input;
+        BandFlags flags;
+        bool forecast = true;
+    };
+    auto a = std::make_shared<Args>();
+    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    addBandFlags(*cmd, a->flags);
+    cmd->add_flag("!--no-forecast", a->forecast, "describe the input only: no model, no band forecast");
+    cmd->footer("The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
+                "Example:\n  gpisvdb info bunny.obj --sigma 0.25");
+    cmd->callback([&action, a] {
+        action = [a] {
+            const ModelFlags& flags = a->flags.model;
+            if (!(flags.smoothingRel > 0)) throw ParameterError("--smoothing must be > 0");
+            const auto threads = limitThreads(flags.threads);
+            const double limit = memoryLimit({a->flags.maxMemory, a->flags.report});
+            const auto start = Clock::now();
+            const InputData data = readInput(a->input);
+            const double readSeconds = since(start);
             std::unique_ptr<AtomicOutput> reportOut;
-            if (!stage->report.empty()) reportOut = std::make_unique<AtomicOutput>(stage->report);
-            // === The samples (a triangle's or a point's position, normal and their covariances): estimated and
-            //     refused before they are made, measured over it (docs/memory.md#info). The input, read in whole
-            //     before, is the baseline; no setting makes fewer samples.
-            const MemoryEstimate memory = estimateStageWithin(limit, "sampling of the input", "libraries, the input", makeSamplesBytes(data),
-                                                              [](double, double) { return std::string("raise it"); });
-            const bool stageOnly = resetPeakResident();
-            const InputSamples s = makeSamples(data, {flags->sigmaRel});
-            const double peak = peakResidentBytes();
-            Vec3d lo = s.samples.position[0], hi = lo;
-            for (const auto& p : s.samples.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-            const double ell = s.samples.lengthScale;
-            std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
-                      << "samples:      " << s.samples.size() << "\n"
-                      << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : " (mean nearest-neighbour spacing)") << "\n"
-                      << "bbox min:     " << lo.transpose() << "\n"
-                      << "bbox max:     " << hi.transpose() << "\n"
-                      << "sigma:        " << flags->sigmaRel << " x l = " << s.sigma << "\n"
-                      << "smoothing:    " << flags->smoothingRel << " x l = " << flags->smoothingRel * ell << "\n"
-                      << "skipped:      " << s.degenerateSkipped << " zero-area triangles\n"
-                      << "triangulated: " << data.polygonsTriangulated << " polygons with more than 3 corners (fans)\n";
-            if (reportOut) {
-                nlohmann::json report = stageReport("samples", memoryStageReport(memory, peak, stageOnly));
+            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
+            nlohmann::json report;
+            {
+                // === The samples (a triangle's or a point's position, normal and their covariances): estimated and
+                //     refused before they are made, measured over it (docs/memory.md#info). The input, read in whole
+                //     before, is the baseline; no setting makes fewer samples.
+                const MemoryEstimate memory = estimateStageWithin(limit, "sampling of the input", "libraries, the input",
+                                                                  makeSamplesBytes(data),
+                                                                  [](double, double) { return std::string("raise it"); });
+                const bool stageOnly = resetPeakResident();
+                const InputSamples s = makeSamples(data, {flags.sigmaRel});
+                const double peak = peakResidentBytes();
+                Vec3d lo = s.samples.position[0], hi = lo;
+                for (const auto& p : s.samples.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+                const double ell = s.samples.lengthScale;
+                std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
+                          << "samples:      " << s.samples.size() << "\n"
+                          << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : " (mean nearest-neighbour spacing)") << "\n"
+                          << "bbox min:     " << lo.transpose() << "\n"
+                          << "bbox max:     " << hi.transpose() << "\n"
+                          << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"
+                          << "smoothing:    " << flags.smoothingRel << " x l = " << flags.smoothingRel * ell << "\n"
+                          << "skipped:      " << s.degenerateSkipped << " zero-area triangles\n"
+                          << "triangulated: " << data.polygonsTriangulated << " polygons with more than 3 corners (fans)\n";
+                report = stageReport("samples", memoryStageReport(memory, peak, stageOnly));
                 report["input"] = {{"path", data.path}, {"samples", s.samples.size()},
                                    {"kind", s.isSoup ? "triangle soup" : "oriented point cloud"}};
-                commitReport(*reportOut, report);
             }
+            // (the samples are freed first: the band command holds the input and the model only)
+            if (a->forecast) report["forecast"] = forecastDefaultBand(data, readSeconds, a->flags);
+            if (reportOut) commitReport(*reportOut, report);
         };
     });
 }
