@@ -413,6 +413,43 @@ TEST_CASE("band: the default voxel size is min(h*, k w_mu), and the resolution s
     CHECK(s.h == Approx(0.5 * r.h).epsilon(1e-12));
 }
 
+TEST_CASE("band: the resolution from every k-th sample keeps w_mu and the cross-section within 1 % of every sample's", "[band]") {
+    // A 20 000-point sphere cloud with its own σ and the bunny, against a tenth of their samples (and fewer).
+    std::mt19937 rng(3);
+    std::normal_distribution<double> g;
+    InputData data;
+    data.cloud = PointCloud{};
+    for (int i = 0; i < 20000; ++i) {
+        const Vec3d p = Vec3d(g(rng), g(rng), g(rng)).normalized();
+        data.cloud->positions.push_back(p), data.cloud->normals.push_back(p), data.cloud->sigmas.push_back(0.02);
+    }
+    const LoadedModel cloud = loadModel(data);
+    const Fixture bunnySoup = bunny(0.5);
+    const std::vector<std::pair<const GpisModel*, const Samples*>> inputs = {{cloud.model.get(), &cloud.input.samples},
+                                                                              {bunnySoup.model.get(), &bunnySoup.samples}};
+    for (const auto& [model, samples] : inputs) {
+        ResolutionOptions all;
+        all.maxSamples = 0;
+        const Resolution every = chooseResolution(*model, *samples, all);
+        for (const std::size_t most : {samples->size() / 10, std::size_t(1000)}) {
+            ResolutionOptions some;
+            some.maxSamples = most;
+            const Resolution sub = chooseResolution(*model, *samples, some);
+            INFO(samples->size() << " samples, at most " << most << ": w_mu " << sub.muWidth << " / " << every.muWidth
+                                 << ", cross-section " << sub.bandVolume << " / " << every.bandVolume);
+            CHECK(sub.area == every.area);
+            CHECK(sub.muWidth == Approx(every.muWidth).epsilon(0.01));
+            CHECK(sub.bandVolume == Approx(every.bandVolume).epsilon(0.01));
+            CHECK(sub.maxStencilL1 <= every.maxStencilL1);
+            CHECK(sub.hStar >= every.hStar);
+        }
+        // Up to maxSamples, every sample: the default equals maxSamples = 0 to the bit.
+        const Resolution byDefault = chooseResolution(*model, *samples);
+        CHECK(byDefault.bandVolume == every.bandVolume);
+        CHECK(byDefault.h == every.h);
+    }
+}
+
 TEST_CASE("band: bad parameters are refused with a ParameterError", "[band]") {
     const Fixture f = bunny(1.0);
     BandOptions o;

@@ -1,9 +1,9 @@
 // gpisvdb info INPUT: what the input holds once read, the absolute noise and smoothing it implies, and the forecast
 // of the default band that `gpisvdb band` would build with the same flags (docs/band.md#forecast).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iostream>
-#include <thread>
 
 #include <tbb/global_control.h>
 
@@ -23,8 +23,10 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, const BandFlags& flags) {
     const auto start = Clock::now();
     const ModelOptions mo = modelOptions(flags.model);
+    // The model's own peak (its samples and tree while they are made) is measured: on large inputs it is the run's.
+    resetPeakResident();
     LoadedModel model = loadModel(data, mo);
-    const double modelSeconds = since(start);
+    const double modelSeconds = since(start), modelPeak = peakResidentBytes();
     const auto tPlan = Clock::now();
     nlohmann::json out = {{"read_seconds", readSeconds}, {"model_seconds", modelSeconds},
                           {"threads", tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)}};
@@ -40,12 +42,14 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
     const double planSeconds = since(tPlan);
     const BandForecast f = forecastBand(*model.model, model.input.samples, plan, {}, progress);
     const double total = readSeconds + modelSeconds + planSeconds + f.buildSeconds + f.writeSeconds;
+    const double peak = std::max(modelPeak, f.peakBytes);
     out.update({{"voxel_size", plan.options.voxelSize}, {"voxel_size_by_budget", plan.budgeted},
                 {"accuracy_voxel_size", plan.accuracyVoxelSize}, {"accuracy_voxels", plan.accuracyVoxels},
                 {"max_band_voxels", plan.maxBandVoxels}, {"mu_width", plan.resolution.muWidth},
                 {"voxel_size_note", voxelSizeNote(plan)}, {"smoothing", model.smoothing},
                 {"smoothing_set_by", smoothingSourceName(model.smoothingSource)},
-                {"voxels", f.voxels}, {"evaluated_voxels", f.evaluated}, {"peak_bytes", f.peakBytes},
+                {"voxels", f.voxels}, {"evaluated_voxels", f.evaluated}, {"peak_bytes", peak},
+                {"model_peak_bytes", modelPeak}, {"band_peak_bytes", f.peakBytes},
                 {"pilot_voxels", f.pilotVoxels}, {"pilot_seconds", f.pilotSeconds},
                 {"resolution_seconds", planSeconds}, {"band_seconds", f.buildSeconds},
                 {"write_seconds", f.writeSeconds}, {"seconds", total}});
@@ -58,7 +62,9 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
                   << millions(plan.accuracyVoxels) << " voxels\n";
     std::cout << "  smoothing:   " << numberText(model.smoothing) << " (set by the " << smoothingSourceName(model.smoothingSource) << ")\n"
               << "  voxels:      about " << millions(f.voxels) << " (" << millions(f.evaluated) << " evaluated)\n"
-              << "  memory:      about " << numberText(f.peakBytes / 1e9) << " GB at its peak\n"
+              << "  memory:      about " << numberText(peak / 1e9) << " GB at its peak (the model's "
+              << numberText(modelPeak / 1e9) << " GB as measured now, the band's " << numberText(f.peakBytes / 1e9)
+              << " GB)\n"
               << "  time:        about " << numberText(total) << " s on " << out["threads"].get<int>() << " threads: reading "
               << numberText(readSeconds) << " s, model " << numberText(modelSeconds) << " s and resolution "
               << numberText(planSeconds) << " s (as measured now), band " << numberText(f.buildSeconds) << " s, .vdb "

@@ -68,6 +68,7 @@ BandForecast forecastBand(const GpisModel& model, const Samples& samples, const 
         visit(s);
         for (const Coord& d : bfsNeighbourOffsets()) visit(s + d);
     }
+    const std::size_t firstLevel = frontier.size();
     double eta = 0;
     std::size_t kept = 0;
     std::vector<Coord> evaluated;
@@ -107,7 +108,8 @@ BandForecast forecastBand(const GpisModel& model, const Samples& samples, const 
     f.pilotVoxels = evaluated.size();
     f.pilotSeconds = seconds;
     f.secondsPerEvaluated = seconds / double(std::max<std::size_t>(evaluated.size(), 1));
-    const double build = bandBuildBytes(f.voxels, f.evaluated, o.batchVoxels), write = bandWriteBytes(f.voxels);
+    const double build = bandBuildBytes(f.voxels, f.evaluated, o.batchVoxels, double(firstLevel) * perSeed);
+    const double write = bandWriteBytes(f.voxels);
     f.peakBytes = plan.estimate.memory.baselineBytes + std::max(build, write) + modelCache;
     f.buildSeconds = f.evaluated * (f.secondsPerEvaluated + kSearchSecondsPerEvaluatedVoxel) +
                      f.voxels * kFinishSecondsPerBandVoxel;

@@ -12,7 +12,7 @@ namespace gpisvdb {
 
 double physicalMemory() { return double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE)); }
 
-double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels) {
+double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels, double firstLevel) {
     // While searching: the visited mask and frontier, and either all the found voxels (at the end) or a batch in
     // flight with the voxels found so far (the largest BFS level, ≈ 0.35 of the evaluated voxels, comes when about
     // 0.4 of the band is found; measured on the bunny, a sphere and a cloud, docs/memory.md#band). Then, gathering
@@ -22,7 +22,10 @@ double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels) 
     const double search = kSearchBytesPerEvaluatedVoxel * evaluated +
                           std::max(kFoundBytesPerVoxel * voxels, kFoundBeforeLargestLevel * kFoundBytesPerVoxel * voxels + batch);
     const double gather = voxels * (kFoundBytesPerVoxel + kIndexTreeBytesPerVoxel + 4.0 + double(sizeof(VoxelStencil)));
-    return std::max(search, gather);
+    // The first level: its coordinates and its evaluated voxels held whole, and the voxels it keeps
+    const double first = kSearchBytesPerEvaluatedVoxel * evaluated +
+                         firstLevel * (double(sizeof(openvdb::Coord) + sizeof(BandVoxel)) + kFoundBytesPerVoxel);
+    return std::max({search, gather, first});
 }
 
 double bandWriteBytes(double voxels) {

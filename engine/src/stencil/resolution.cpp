@@ -30,7 +30,15 @@ Resolution chooseResolution(const GpisModel& model, const Samples& samples, cons
     if (!(options.maxAnisotropy >= 1))
         throw ParameterError("the anisotropy cap (ResolutionOptions::maxAnisotropy) must be >= 1", {"ResolutionOptions::maxAnisotropy"});
     const QmcRule rule(options.qmcSamples);
-    const std::vector<ValueGradient> z = model.evaluate(samples.position, progress);
+    // === The samples evaluated: all, or every k-th (ResolutionOptions::maxSamples)
+    const std::size_t n = samples.size();
+    const std::size_t stride = options.maxSamples > 0 && n > options.maxSamples ? (n + options.maxSamples - 1) / options.maxSamples : 1;
+    std::vector<std::size_t> taken;
+    for (std::size_t i = 0; i < n; i += stride) taken.push_back(i);
+    std::vector<Vec3d> subset;
+    if (stride > 1)
+        for (std::size_t i : taken) subset.push_back(samples.position[i]);
+    const std::vector<ValueGradient> z = model.evaluate(stride > 1 ? subset : samples.position, progress);
     std::vector<int> width(z.size(), 0);
     std::vector<double> muWidth(z.size(), 0), mu(z.size(), 0), muPeak(z.size(), 0);
     tbb::parallel_for(std::size_t(0), z.size(), [&](std::size_t i) {
@@ -49,11 +57,14 @@ Resolution chooseResolution(const GpisModel& model, const Samples& samples, cons
     // === The band's cross-section from each sample's width where μ > η (see Resolution::bandVolume)
     std::nth_element(mu.begin(), mu.begin() + long(mu.size() / 2), mu.end());  // (mu is not read after this)
     const double eta = std::min(options.etaRelative, 0.5) * mu[mu.size() / 2];
+    double takenArea = 0;
     for (std::size_t i = 0; i < z.size(); ++i) {
-        const double a = samples.normal[i].norm();
-        r.area += a;
+        const double a = samples.normal[taken[i]].norm();
+        takenArea += a;
         if (eta > 0 && muPeak[i] > eta) r.bandVolume += a * 2.0 * muWidth[i] * std::sqrt(2.0 * std::log(muPeak[i] / eta));
     }
+    for (const Vec3d& w : samples.normal) r.area += w.norm();
+    if (takenArea > 0) r.bandVolume *= r.area / takenArea;
     r.maxStencilL1 = std::max(1, *std::max_element(width.begin(), width.end()));
     r.hStar = options.resolutionScale * samples.lengthScale / r.maxStencilL1;
     std::nth_element(muWidth.begin(), muWidth.begin() + long(muWidth.size() / 2), muWidth.end());

@@ -60,8 +60,10 @@ struct BandEstimate {
 };
 
 /// Peak bytes, above the resident set before it, of building a band of `voxels` band voxels that evaluates
-/// `evaluated` voxels in batches of `batchVoxels` (buildBand), and of writing it (writeBandVdb).
-double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels);
+/// `evaluated` voxels in batches of `batchVoxels` (buildBand), and of writing it (writeBandVdb). `firstLevel`: the BFS's
+/// first level (the sample voxels and their neighbours), whose voxels are all held until η is known; where samples are
+/// as dense as the voxels (10⁶-point scans) it is a large share of the band. 0: not counted (estimateBand).
+double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels, double firstLevel = 0);
 double bandWriteBytes(double voxels);
 
 /// The estimate for a band of cross-section `bandVolume` and surface `area` (Resolution::bandVolume and area; world

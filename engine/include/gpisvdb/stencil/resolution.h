@@ -19,6 +19,10 @@ struct ResolutionOptions {
     double resolutionScale = 1.0;  ///< c (> 0): λ_res = c·ℓ, and the default h scales with c (c < 1: finer)
     double maxAnisotropy = 20;     ///< as BandOptions::maxAnisotropy
     double etaRelative = 0.01;     ///< as BandOptions::etaRelative, for bandArea and bandWidth
+    /// The model is evaluated at every sample up to this many, and at every k-th beyond (k = ⌈n / maxSamples⌉): w_μ is
+    /// a median and the cross-section a sum scaled to all the samples' area, both within 1 % of every sample's (tested);
+    /// max w(p_i) is the subsample's (0: every sample). A 1e6-point scan spent 34 s here at every sample.
+    std::size_t maxSamples = 200000;
 };
 
 struct Resolution {

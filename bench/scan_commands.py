@@ -1,0 +1,63 @@
+#!/usr/bin/env python3
+"""Every band command on scans at the default settings (issue 38 item 1; docs/benchmarks.md#scan-commands): band,
+green, geodesic (one source, one target) and spectrum -k 10 on unit-sphere clouds of N points with sigma 0.01 in their
+7th column (bench/sphere_clouds.py), defaults otherwise; each command's wall clock, peak RSS and band voxels.
+
+Usage: python3 bench/scan_commands.py [--gpisvdb build/bin/gpisvdb] [--sizes 10000,100000] [--out bench/results/scan_commands.json]
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+COMMANDS = {
+    "band": [],
+    "green": ["--source", "0,0,1"],
+    "geodesic": ["--source", "0,0,1", "--target", "0,0,-1"],
+    "spectrum": ["-k", "10"],
+}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--gpisvdb", default="build/bin/gpisvdb")
+    ap.add_argument("--sizes", default="10000,100000")
+    ap.add_argument("--out", default="bench/results/scan_commands.json")
+    args = ap.parse_args()
+    sizes = args.sizes.split(",")
+    paths = [f"bench/results/clouds/sphere_{n}.xyz" for n in sizes]
+    missing = [n for n, p in zip(sizes, paths) if not os.path.exists(p)]
+    if missing:
+        subprocess.run([sys.executable, "bench/sphere_clouds.py", "--sizes", ",".join(missing)], check=True)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        report, vdb = os.path.join(tmp, "report.json"), os.path.join(tmp, "out.vdb")
+        for n, path in zip(sizes, paths):
+            for name, flags in COMMANDS.items():
+                cmd = [args.gpisvdb, name, path, "-o", vdb, "--report", report, "--quiet"] + flags
+                print("+", " ".join(cmd), flush=True)
+                start = time.monotonic()
+                subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                seconds = time.monotonic() - start
+                r = json.load(open(report))
+                row = {"samples": int(n), "command": name, "flags": flags, "seconds": seconds,
+                       "peak_rss_bytes": r["memory"]["peak_rss_bytes"], "band_voxels": r["band"]["voxels"],
+                       "voxel_size": r["parameters"]["voxel_size"], "timings_s": r.get("timings_s", {})}
+                if name == "spectrum":
+                    row["spectrum"] = r.get("spectrum")
+                if name == "geodesic":
+                    row["paths"] = r["geodesic"]["paths"]
+                rows.append(row)
+                print(f"  {name} on {n} points: {seconds:.1f} s, {row['peak_rss_bytes'] / 1e9:.2f} GB, "
+                      f"{row['band_voxels']} voxels", flush=True)
+    json.dump({"machine": {"nproc": os.cpu_count()}, "date": time.strftime("%Y-%m-%d"),
+               "command": "python3 bench/scan_commands.py " + " ".join(sys.argv[1:]), "runs": rows},
+              open(args.out, "w"), indent=1)
+    print(args.out)
+
+
+if __name__ == "__main__":
+    main()
