@@ -141,13 +141,34 @@ TEST_CASE("memory: sample refuses beyond --max-memory before it allocates, namin
 TEST_CASE("memory: the info command's estimate (the samples, and a cloud's spacing) is within 15 % of its stage's peak, on two sizes, and refused beyond --max-memory", "[memory][cli]") {
     // 104 B per sample: 8 MB and 33 MB for the soups, 2.9 MB for the 21 000-point cloud
     for (const std::string& input : {uvSphere(200), uvSphere(400), gpisvdb::test::dataPath("sphere_20k_normal.xyz")})
-        checkStage(childStage("info " + input, "samples"));
+        checkStage(childStage("info " + input + " --no-forecast", "samples"));
     const std::string input = uvSphere(200), json = temp("memory_info_refused.json");
-    const nlohmann::json fits = childStage("info " + input, "samples");
+    const nlohmann::json fits = childStage("info " + input + " --no-forecast", "samples");
     const double baseline = fits["baseline_bytes"], estimate = fits["estimate_bytes"];
     // No setting makes fewer samples: raise it
     checkRefused("info " + input + " --report " + json + " --max-memory " + bytes(baseline + 0.5 * (estimate - baseline)), json,
                  {"the sampling of the input needs about", "raise it"});
+}
+
+TEST_CASE("memory: info's forecast of the band's peak is within 25 % of the band's measured peak, on a budgeted cloud and the bunny", "[memory][cli]") {
+    // A unit-sphere cloud of 3000 points with σ = 0.02 of its own, budgeted to 20 000 voxels; the bunny at σ_rel 1.
+    std::ostringstream text;
+    for (int i = 0; i < 3000; ++i) {
+        const double z = 1 - (2 * i + 1) / 3000.0, r = std::sqrt(1 - z * z), a = 2.399963229728653 * i;  // a Fibonacci sphere
+        text << r * std::cos(a) << ' ' << r * std::sin(a) << ' ' << z << ' ' << r * std::cos(a) << ' ' << r * std::sin(a)
+             << ' ' << z << " 0.02\n";
+    }
+    const std::string cloud = temp("memory_forecast_cloud.xyz");
+    std::ofstream(cloud) << text.str();
+    for (const std::string args : {cloud + " --max-voxels 20000", gpisvdb::test::dataPath("bunny.obj") + " --sigma 1"}) {
+        const std::string info = temp("memory_forecast_info.json"), band = temp("memory_forecast_band.json");
+        REQUIRE(run("info " + args + " --report " + info).code == 0);
+        REQUIRE(run("band " + args + " -o " + temp("memory_forecast.vdb") + " --report " + band + " --quiet").code == 0);
+        const double forecast = nlohmann::json::parse(std::ifstream(info))["forecast"]["peak_bytes"];
+        const double measured = nlohmann::json::parse(std::ifstream(band))["memory"]["peak_rss_bytes"];
+        INFO(args << ": forecast " << forecast / 1e6 << " MB, measured " << measured / 1e6 << " MB");
+        CHECK(forecast == Approx(measured).epsilon(0.25));
+    }
 }
 
 TEST_CASE("memory: the demo's estimates of its stages (Green's function, march and spectrum per sigma, pictures) are within 15 % of the peaks measured over them, on two sizes", "[memory][cli][demo]") {
