@@ -52,6 +52,8 @@ def main():
                    "voxels": {"forecast": f["voxels"], "band": b["band"]["voxels"]},
                    "peak_bytes": {"forecast": f["peak_bytes"], "band": b["memory"]["peak_rss_bytes"]},
                    "seconds": {"forecast": f["seconds"], "band": band_seconds},
+                   "mass": b["band"]["mass"], "smoothing": b["parameters"]["smoothing"],
+                   "smoothing_set_by": b["parameters"]["smoothing_set_by"],
                    "seconds_parts": {"forecast": {k: f[k] for k in ("read_seconds", "model_seconds",
                                                                      "resolution_seconds", "band_seconds",
                                                                      "write_seconds")},

@@ -1278,9 +1278,9 @@ std::string sphereCloud(const std::string& name, int n, double sigma) {
 }  // namespace
 
 TEST_CASE("cli: the band-voxel budget sets the default voxel size and says so, and --voxel-size still refuses what does not fit", "[cli]") {
-    // A dense cloud (3000 points, σ = 0.02 in world units): its accuracy-driven band holds millions of voxels; a
+    // A dense cloud (4000 points, σ = 0.02 in world units): its accuracy-driven band holds millions of voxels; a
     // budget of 20 000 coarsens h to fit it, and says so.
-    const std::string cloud = sphereCloud("budget_cloud.xyz", 3000, 0.02);
+    const std::string cloud = sphereCloud("budget_cloud.xyz", 4000, 0.02);
     const std::string vdb = temp("budget.vdb"), json = temp("budget.json");
     Run r = run("band " + cloud + " -o " + vdb + " --report " + json + " --max-voxels 20000 --max-memory 40M");
     INFO(r.err);

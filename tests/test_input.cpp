@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <tbb/global_control.h>
 #include <vtkCellArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkPointData.h>
@@ -222,4 +223,78 @@ TEST_CASE("input: cloud samples carry area-weighted normals and per-point sigma"
         const Vec3d n = cs.samples.normal[i].normalized();
         CHECK(std::abs(n.dot(cs.samples.normalCovariance[i].matrix() * n)) < 1e-12);  // tangential only
     }
+}
+
+TEST_CASE("input: a cloud's length scale is sqrt(area / points), on scan lines as on random and even samplings",
+          "[input]") {
+    // A scanner's lines put every near neighbour on the point's own line, so the mean nearest-neighbour distance
+    // (ℓ before) is the spacing along the lines, 10× below the surface's spacing on the 10:1 scan.
+    const double torusArea = 4 * M_PI * M_PI * 3.0;
+    for (const double ratio : {1.0, 3.0, 10.0, 30.0}) {
+        const double across = std::sqrt(torusArea / 20000 * ratio), along = across / ratio;
+        const PointCloud c = scanLineTorus(along, across);
+        const CloudSamples cs = cloudSamples(c);
+        const double truth = std::sqrt(torusArea / double(c.positions.size()));
+        double area = 0;
+        for (const auto& w : cs.samples.normal) area += w.norm();
+        INFO("across / along " << ratio << ": points " << c.positions.size() << ", area " << area);
+        CHECK(cs.samples.lengthScale == Approx(truth).epsilon(0.2));
+        CHECK(area == Approx(torusArea).epsilon(0.2));
+    }
+    std::mt19937_64 rng(3);
+    std::normal_distribution<double> g;
+    PointCloud random;
+    for (int i = 0; i < 20000; ++i) {
+        const Vec3d d = Vec3d(g(rng), g(rng), g(rng)).normalized();
+        random.positions.push_back(d);
+        random.normals.push_back(d);
+    }
+    CHECK(cloudSamples(random).samples.lengthScale == Approx(std::sqrt(4 * M_PI / 20000)).epsilon(0.1));
+    // An outlier's area is that of the empty space around it; 1 % of them leave ℓ within 10 %.
+    std::uniform_real_distribution<double> box(-2, 2);
+    for (int i = 0; i < 200; ++i) {
+        random.positions.emplace_back(box(rng), box(rng), box(rng));
+        random.normals.emplace_back(0, 0, 1);
+    }
+    CHECK(cloudSamples(random).samples.lengthScale == Approx(std::sqrt(4 * M_PI / 20000)).epsilon(0.1));
+}
+
+TEST_CASE("input: the cylinder grows only across scan lines: a random cloud's areas are those of the fixed cylinder",
+          "[input]") {
+    const InputData d = readInput(test::dataPath("sphere_20k_normal.xyz"));
+    CloudNoiseOptions fixed;
+    fixed.areaDoublings = 0;
+    const Samples a = cloudSamples(*d.cloud).samples, b = cloudSamples(*d.cloud, fixed).samples;
+    std::size_t same = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) same += a.normal[i] == b.normal[i];
+    CHECK(double(same) >= 0.99 * double(a.size()));
+}
+
+TEST_CASE("input: a cloud's areas and length scale are identical for 1 and 2 threads", "[input]") {
+    const PointCloud c = scanLineTorus(0.02, 0.2);
+    const auto with = [&](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+        return cloudSamples(c).samples;
+    };
+    const Samples one = with(1), two = with(2);
+    CHECK(one.lengthScale == two.lengthScale);
+    CHECK(one.normal == two.normal);
+}
+
+TEST_CASE("input: the cylinder's growth is bounded: points on one line end, and bad growth options are refused",
+          "[input]") {
+    PointCloud line;
+    for (int i = 0; i < 200; ++i) {
+        line.positions.emplace_back(0.01 * i, 0, 0);
+        line.normals.emplace_back(0, 0, 1);
+    }
+    const CloudSamples cs = cloudSamples(line);  // never isotropic: stops after areaDoublings
+    CHECK(std::isfinite(cs.samples.lengthScale));
+    CHECK(cs.samples.lengthScale > 0);
+    CloudNoiseOptions o;
+    o.areaDoublings = -1;
+    CHECK_THROWS_AS(cloudSamples(line, o), ParameterError);
+    o = {};
+    o.areaIsotropy = 2;
+    CHECK_THROWS_AS(cloudSamples(line, o), ParameterError);
 }

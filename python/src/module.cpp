@@ -799,7 +799,7 @@ Example:
             R"doc(A model of an oriented point cloud with per-point uncertainty (docs/model.md).
 
 P: n x 3 positions (world units), N: n x 3 outward normals (any length > 0; normalised).
-sigma: a number, the position std relative to the length scale l (mean nearest-neighbour spacing; default 0.5);
+sigma: a number, the position std relative to the length scale l (sqrt(area / points) of a cloud; default 0.5);
        or an array of n absolute stds (world units), one per point, like the 7th column of an .xyz file.
 area:  None (estimated from the spacing) or n areas per point (world units^2).
 The other keywords as for Model(V, F, ...).)doc")
@@ -835,7 +835,7 @@ Returns a dict of float64 arrays:
   T           (n, 3, 3)  tangent tensor, world units^-1 (trace 2 mu)
 The same numbers as `gpisvdb evaluate`'s CSV.)doc")
         .def_property_readonly("length_scale", [](const Model& m) { return m.loaded->input.samples.lengthScale; },
-                               "l: mean edge length (soup) or mean nearest-neighbour spacing (cloud), world units")
+                               "l: mean edge length (soup) or sqrt(area / points) (cloud), world units")
         .def_property_readonly("sigma", [](const Model& m) { return m.loaded->input.sigma; }, "absolute noise std sigma, world units")
         .def_property_readonly("smoothing", [](const Model& m) { return m.loaded->smoothing; }, "absolute kernel smoothing s, world units")
         .def_property_readonly("samples", [](const Model& m) { return m.loaded->input.samples.size(); },

@@ -115,7 +115,7 @@ void addInfo(CLI::App& app, Action& action) {
                 const double ell = s.samples.lengthScale;
                 std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
                           << "samples:      " << s.samples.size() << "\n"
-                          << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : " (mean nearest-neighbour spacing)") << "\n"
+                          << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : " (sqrt(area / points))") << "\n"
                           << "bbox min:     " << lo.transpose() << "\n"
                           << "bbox max:     " << hi.transpose() << "\n"
                           << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"

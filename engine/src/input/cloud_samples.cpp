@@ -1,6 +1,11 @@
+#include <algorithm>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 #include <nanoflann.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
+#include "core/morton.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/point_cloud.h"
 
@@ -16,13 +21,47 @@ struct CloudAdaptor {
 };
 using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, CloudAdaptor>,
                                                    CloudAdaptor, 3, std::size_t>;
+
+/// Point i's area from the points in its cylinder (the rule: cloudSamples' "Local area"); 0 where p_i has no
+/// distinct neighbour or no normal. idx, d2 (k + 1 entries) and ball are the caller's scratch.
+double cylinderArea(const KdTree& tree, const PointCloud& cloud, std::size_t i, std::size_t k,
+                    const CloudNoiseOptions& options, std::vector<std::size_t>& idx, std::vector<double>& d2,
+                    std::vector<std::pair<std::size_t, double>>& ball) {
+    const Vec3d& p = cloud.positions[i];
+    const std::size_t found = tree.knnSearch(p.data(), k + 1, idx.data(), d2.data());
+    double R = 2.0 * std::sqrt(d2[found - 1]);
+    const double len = cloud.normals[i].norm();
+    if (!(R > 0) || !(len > 0)) return 0.0;
+    const Vec3d nrm = cloud.normals[i] / len;
+    for (int doubling = 0;; ++doubling, R *= 2) {
+        ball.clear();
+        tree.radiusSearch(p.data(), 2.0 * R * R, ball, nanoflann::SearchParams(32, 0, false));
+        std::size_t inside = 0;
+        Mat3d moment = Mat3d::Zero();
+        for (const auto& [j, dist2] : ball) {
+            const Vec3d d = cloud.positions[j] - p;
+            const double h = d.dot(nrm);
+            if (!(std::abs(h) <= R && d.squaredNorm() - h * h <= R * R)) continue;
+            ++inside;
+            const Vec3d t = d - h * nrm;
+            moment += t * t.transpose();
+        }
+        const double area = M_PI * R * R / double(std::max<std::size_t>(inside, 1));
+        if (doubling == options.areaDoublings) return area;
+        // The tangent moments are the two largest eigenvalues of `moment` (its normal one is 0).
+        Eigen::SelfAdjointEigenSolver<Mat3d> eig;
+        const Eigen::Vector3d ev = eig.computeDirect(moment, Eigen::EigenvaluesOnly).eigenvalues();
+        if (ev[1] >= options.areaIsotropy * ev[2]) return area;
+    }
+}
 }  // namespace
 
 double cloudSamplingBytes(std::size_t points) {
-    // nanoflann splits down to leaves of at most 16 points (the tree's parameter below), about half of that on
-    // average: 2 n / 8 nodes
+    // Per point: its area and the copy ℓ's trimmed mean sorts (2 doubles), its Morton key and index (16 bytes),
+    // the tree's index; nanoflann splits down to leaves of at most 16 points (the tree's parameter below), about
+    // half of that on average: 2 n / 8 nodes.
     const double n = double(points), nodes = 2.0 * n / 8.0;
-    return 16.0 * n + double(sizeof(std::size_t)) * n + nodes * double(sizeof(KdTree::Node));
+    return 32.0 * n + double(sizeof(std::size_t)) * n + nodes * double(sizeof(KdTree::Node));
 }
 
 CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& options) {
@@ -30,45 +69,55 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
         throw ParameterError("the relative noise σ (CloudNoiseOptions::sigmaRel) must be finite and > 0 (got " +
                                  numberText(options.sigmaRel) + ")",
                              {"CloudNoiseOptions::sigmaRel"});
+    if (options.areaDoublings < 0 || options.areaDoublings > 20)
+        throw ParameterError("the cylinder's doublings (CloudNoiseOptions::areaDoublings) must be in 0…20 (got " +
+                                 std::to_string(options.areaDoublings) + ")",
+                             {"CloudNoiseOptions::areaDoublings"});
+    if (!(options.areaIsotropy >= 0 && options.areaIsotropy <= 1))
+        throw ParameterError("the cylinder's isotropy (CloudNoiseOptions::areaIsotropy) must be in [0, 1] (got " +
+                                 numberText(options.areaIsotropy) + ")",
+                             {"CloudNoiseOptions::areaIsotropy"});
     const std::size_t n = cloud.positions.size();
     if (n < 2) throw InputError("a point cloud needs at least 2 points (got " + std::to_string(n) + ")");
     if (cloud.normals.size() != n) throw InputError("the point cloud has no normals (need nx ny nz per point)");
 
-    // === Local spacing. ℓ: mean nearest-neighbour distance. Area: a_i = π R² / (points in the cylinder of
-    // radius R and half-height R around p_i along n_i), R = 2 × the distance to the k-th neighbour. The
-    // cylinder counts the whole thickness of a noisy cloud, so the estimate is of the surface density even
-    // when the position noise exceeds the spacing (a 3D ball count would over-estimate areas there).
+    // === Local area. a_i = π R² / (points in the cylinder of radius R and half-height R around p_i along n_i),
+    // R = 2 × the distance to the k-th neighbour. The cylinder counts the whole thickness of a noisy cloud, so the
+    // estimate is of the surface density even when the position noise exceeds the spacing (a 3D ball count would
+    // over-estimate areas there). Scan lines (dense along, sparse across) put every one of the k neighbours on
+    // p_i's own line, and so does the cylinder while R is below the lines' spacing: its points then lie along one
+    // direction of the tangent disc, the count is of a line and the area is too small. R doubles (at most
+    // `areaDoublings` times) until the points' second moments about p_i in the tangent plane, which are equal
+    // (R²/4 each) for a covered disc and for a half disc at a boundary, differ by at most 1/areaIsotropy.
     CloudAdaptor adaptor{cloud.positions};
     KdTree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
     tree.buildIndex();
     const std::size_t k = std::min<std::size_t>(std::size_t(std::max(1, options.areaNeighbours)), n - 1);
-    std::vector<double> area(n), nearest(n);
-    std::vector<std::size_t> idx(k + 1);
-    std::vector<double> d2(k + 1);
-    std::vector<std::pair<std::size_t, double>> ball;
-    for (std::size_t i = 0; i < n; ++i) {
-        const Vec3d& p = cloud.positions[i];
-        const std::size_t found = tree.knnSearch(p.data(), k + 1, idx.data(), d2.data());
-        // The first hit is the point itself (distance 0); duplicates also show as 0.
-        nearest[i] = found > 1 ? std::sqrt(d2[1]) : 0.0;
-        const double R = 2.0 * std::sqrt(d2[found - 1]);
-        const double len = cloud.normals[i].norm();
-        if (!(R > 0) || !(len > 0)) continue;
-        const Vec3d nrm = cloud.normals[i] / len;
-        ball.clear();
-        tree.radiusSearch(p.data(), 2.0 * R * R, ball, nanoflann::SearchParams(32, 0, false));
-        std::size_t inside = 0;
-        for (const auto& [j, dist2] : ball) {
-            const Vec3d d = cloud.positions[j] - p;
-            const double h = d.dot(nrm);
-            if (std::abs(h) <= R && d.squaredNorm() - h * h <= R * R) ++inside;
+    std::vector<double> area(cloud.areas.empty() ? n : 0);
+    // Neighbours visited together: the tree's nodes stay in cache (docs/benchmarks.md#length-scale).
+    const auto order = area.empty() ? decltype(detail::mortonSorted(cloud.positions)){} : detail::mortonSorted(cloud.positions);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, area.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+        std::vector<std::size_t> idx(k + 1);
+        std::vector<double> d2(k + 1);
+        std::vector<std::pair<std::size_t, double>> ball;
+        for (std::size_t j = r.begin(); j < r.end(); ++j) {
+            const std::size_t i = order[j].second;
+            area[i] = cylinderArea(tree, cloud, i, k, options, idx, d2, ball);
         }
-        area[i] = M_PI * R * R / double(std::max<std::size_t>(inside, 1));
-    }
-    double ell = 0;
-    for (double d : nearest) ell += d;
-    ell /= double(n);
-    if (!(ell > 0)) throw InputError("all points of the cloud coincide");
+    });
+    const std::vector<double>& pointArea = cloud.areas.empty() ? area : cloud.areas;
+
+    // === Length scale ℓ = √(A / N), A the cloud's area: the spacing of the surface, whatever the sampling's
+    // pattern (a regular grid's and a random cloud's of the same density are equal; scan lines give the geometric
+    // mean of their two spacings). A is the sum of the areas (given or estimated) of all but the largest 1 %,
+    // whose share stands for them: an outlier's area is that of the empty disc around it.
+    std::vector<double> areas = pointArea;
+    const std::size_t kept = n - n / 100;
+    std::nth_element(areas.begin(), areas.begin() + std::ptrdiff_t(kept - 1), areas.end());
+    double keptArea = 0;
+    for (std::size_t i = 0; i < kept; ++i) keptArea += areas[i];
+    const double ell = std::sqrt(keptArea / double(kept));
+    if (!(ell > 0) || !std::isfinite(ell)) throw InputError("all points of the cloud coincide");
 
     CloudSamples out;
     out.sigma = options.sigmaRel * ell;
@@ -82,7 +131,7 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
         const double len = cloud.normals[i].norm();
         if (!(len > 0)) throw InputError("point " + std::to_string(i + 1) + " has a zero normal");
         const Vec3d nrm = cloud.normals[i] / len;
-        const double a = cloud.areas.empty() ? area[i] : cloud.areas[i];
+        const double a = pointArea[i];
         const double sigma = cloud.sigmas.empty() ? out.sigma : cloud.sigmas[i];
         if (!(sigma > 0)) throw InputError("point " + std::to_string(i + 1) + " has sigma <= 0");
         // Σ' = a² τ² (I − n nᵀ), τ = σ/√a (normal-angle std = position std over the local spacing)

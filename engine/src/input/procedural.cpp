@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <random>
 
 #include "gpisvdb/core/errors.h"
 
@@ -56,6 +57,27 @@ TriangleSoup torus(int u, int v, double major, double minor) {
             s.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
         }
     return s;
+}
+
+PointCloud scanLineTorus(double along, double across, double major, double minor, double jitter, unsigned seed) {
+    if (!(along > 0) || !(across > 0) || !(minor > 0) || !(major > minor) || !(jitter >= 0 && jitter <= 1))
+        throw ParameterError("scanLineTorus needs along, across > 0, major > minor > 0 and jitter in [0, 1]");
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    PointCloud c;
+    const int rings = std::max(3, int(std::lround(2 * M_PI * minor / across)));
+    for (int j = 0; j < rings; ++j) {
+        const double b = 2 * M_PI * j / rings, radius = major + minor * std::cos(b);
+        const int points = std::max(3, int(std::lround(2 * M_PI * radius / along)));
+        const double phase = unit(rng);
+        for (int i = 0; i < points; ++i) {
+            const double a = 2 * M_PI * (i + phase + jitter * (unit(rng) - 0.5)) / points;
+            const Vec3d n(std::cos(b) * std::cos(a), std::cos(b) * std::sin(a), std::sin(b));
+            c.positions.emplace_back(radius * std::cos(a), radius * std::sin(a), minor * std::sin(b));
+            c.normals.push_back(n);
+        }
+    }
+    return c;
 }
 
 TriangleSoup cutAbove(const TriangleSoup& soup, double zCut) {

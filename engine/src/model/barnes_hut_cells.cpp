@@ -14,7 +14,7 @@
 
 #include "contributions.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
-#include "morton.h"
+#include "core/morton.h"
 
 namespace gpisvdb {
 

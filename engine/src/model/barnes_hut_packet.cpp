@@ -11,7 +11,7 @@
 
 #include "contributions.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
-#include "morton.h"
+#include "core/morton.h"
 #include "packet_lanes.h"
 #include "packet_near_field.h"
 
@@ -400,15 +400,7 @@ std::vector<ValueGradient> BarnesHutGpis::evaluate(const std::vector<Vec3d>& xs,
     std::vector<ValueGradient> out(xs.size());
     if (xs.empty()) return out;
     // === Order the points along a Morton curve so that a packet holds neighbours (they open the same nodes)
-    Vec3d lo = xs[0], hi = xs[0];
-    for (const Vec3d& p : xs) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-    const double extent = std::max((hi - lo).maxCoeff(), 1e-300);
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(xs.size());
-    tbb::parallel_for(std::size_t(0), xs.size(), [&](std::size_t i) {
-        const Vec3d q = ((xs[i] - lo) / extent * double(0x1fffff)).cwiseMax(0.0);
-        keyed[i] = {detail::morton(std::uint64_t(q.x()), std::uint64_t(q.y()), std::uint64_t(q.z())), std::uint32_t(i)};
-    });
-    std::sort(keyed.begin(), keyed.end());
+    const auto keyed = detail::mortonSorted(xs);
     // === Packets, in parallel; a packet's results depend only on its points
     const std::size_t packets = (xs.size() + kLanes - 1) / kLanes;
     constexpr std::size_t kBlock = 1024;  // packets between progress reports

@@ -17,6 +17,8 @@ struct PointCloud {
 struct CloudNoiseOptions {
     double sigmaRel = 0.5;  ///< default position std relative to ℓ when a point has no sigma, > 0
     int areaNeighbours = 8; ///< k: the area estimate counts points in a cylinder of radius 2 × (k-th neighbour distance)
+    int areaDoublings = 5;  ///< the cylinder's radius doubles at most this often while its points lie along a line, 0…20
+    double areaIsotropy = 0.3; ///< ... that is, while their tangent second moments' ratio (min/max) is below this, 0…1
 };
 
 struct CloudSamples {
@@ -25,12 +27,13 @@ struct CloudSamples {
 };
 
 /// Samples of an oriented cloud: w_i = a_i n_i, Σ_i = σ_i² I and Σ'_i = a_i² τ_i² (I − n_i n_iᵀ) with the
-/// normal-angle std τ_i = σ_i / √a_i (position noise over the local spacing). ℓ = mean nearest-neighbour
-/// distance. Throws InputError on fewer than 2 points or a zero normal.
+/// normal-angle std τ_i = σ_i / √a_i (position noise over the local spacing). ℓ = √(A / N), A / N the mean of the
+/// areas less the largest 1 % (docs/math.md#length-scale). Throws InputError on fewer than 2 points or a zero normal.
 CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& options = {});
 
 /// Bytes cloudSamples holds beside the samples it makes from `points` points while it makes them: each point's area
-/// and nearest-neighbour distance (16 B) and the k-d tree over the points (an 8 B index per point and its nodes).
+/// and a copy of it for ℓ (16 B), the order the areas are estimated in (16 B) and the k-d tree over the points (an
+/// 8 B index per point and its nodes).
 double cloudSamplingBytes(std::size_t points);
 
 }  // namespace gpisvdb

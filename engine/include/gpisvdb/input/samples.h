@@ -24,7 +24,7 @@ struct Samples {
     std::vector<Vec3d> normal;              ///< w_i, vector area (outward), world units²
     std::vector<double> positionVariance;   ///< Σ_i = v_i I (isotropic for both noise models), world units²
     std::vector<Sym3> normalCovariance;     ///< Σ'_i, world units⁴
-    double lengthScale = 0;                 ///< ℓ: mean edge length (soup) or mean nearest-neighbour spacing (cloud)
+    double lengthScale = 0;                 ///< ℓ, world units: mean edge length (soup) or √(area / points) (cloud)
 
     std::size_t size() const { return position.size(); }
 };
