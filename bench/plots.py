@@ -46,6 +46,7 @@ DOCUMENTED = {
                  "build/bin/bench_spectrum --data data --scales 1 --counts 20 "
                  "--methods cholmod,simplicial --out bench/results/spectrum.json"],
     "extras": ["build/bin/bench_extras --grid 128 --out bench/results/extras.json"],
+    "scan_model": ["build/bin/bench_scan_model --out bench/results/scan_model.json"],
     "energy": ["build/bin/validate_energy --out bench/results/energy.json",
                "build/bin/validate_energy --h-over-wmu 1.5 --out bench/results/energy_fine.json"],
 }
@@ -57,6 +58,7 @@ THREAD_USE = {
     "geodesic": "march single-threaded, tables use all threads",
     "spectrum": "band uses all threads; CHOLMOD + OpenBLAS serial",
     "extras": "uses all threads",
+    "scan_model": "evaluation on 1 thread, samples and tree on all",
     "energy": "uses all threads",
 }
 # Paper (Genest & Coeurjolly, cited in docs/math.md) Sec. 9: Intel Xeon W-2245, 8 cores; Green's problem of Fig. 5, sigma {0.25, 0.5, 1}
@@ -712,6 +714,40 @@ def plot_energy(ctx):
     ctx.written.append(out)
 
 
+def plot_scan_model(ctx, d):
+    rows = sorted(d.get("rows") or [], key=lambda r: r["points"])
+    if not rows:
+        return
+    n = [r["points"] for r in rows]
+    fig, axs = plt.subplots(1, 2, figsize=(11, 4.4))
+    ax = axs[0]
+    ax.plot(n, [r["cells_us_per_voxel_1t"] for r in rows], "o-", color="C0", label="cells (the band's path)")
+    ax.plot(n, [r["packets_us_per_voxel_1t"] for r in rows], "s--", color="C1", label="packets")
+    a = rows[0]
+    ref_line(ax, n, a["points"], a["cells_us_per_voxel_1t"], lambda x: x ** 0.5, "∝ √n")
+    loglog(ax)
+    ax.set_xlabel("cloud points n (unit sphere, σ = %g, s = %g fixed)" % (d.get("sigma", 0), rows[0]["smoothing"]))
+    ax.set_ylabel("µs per band-like voxel, 1 thread")
+    ax.set_title("Model cost per voxel on denser scans (h = %g)" % d.get("h", 0))
+    ax.legend()
+    ax = axs[1]
+    ax.plot(n, [r["samples_seconds_all_threads"] for r in rows], "o-", color="C0", label="samples (areas, ℓ)")
+    ax.plot(n, [r["tree_build_seconds_all_threads"] for r in rows], "s-", color="C1", label="Barnes–Hut tree")
+    ax2 = ax.twinx()
+    ax2.plot(n, [r["sample_bytes"] + r["tree_bytes_per_sample"] for r in rows], "d:", color="C2",
+             label="bytes per sample (samples + tree)")
+    ax2.set_ylabel("bytes per sample")
+    ax2.set_ylim(0, 1.2 * max(r["sample_bytes"] + r["tree_bytes_per_sample"] for r in rows))
+    loglog(ax)
+    ax.set_xlabel("cloud points n")
+    ax.set_ylabel("seconds (all threads)")
+    ax.set_title("Model build and memory")
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left")
+    ctx.save(fig, "scan_model", "scan_model", d)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default="bench/results")
@@ -720,7 +756,8 @@ def main():
     os.makedirs(args.images, exist_ok=True)
     ctx = Context(args.results, args.images)
     for name, fn in (("model", plot_model), ("band", plot_band), ("solve", plot_solve), ("geodesic", plot_geodesic),
-                     ("spectrum", plot_spectrum), ("extras", plot_extras)):
+                     ("spectrum", plot_spectrum), ("extras", plot_extras),
+                     ("scan_model", plot_scan_model)):
         path = os.path.join(args.results, name + ".json")
         if not os.path.exists(path):
             print("bench/plots.py: no %s, skipped" % path, file=sys.stderr)
