@@ -6,7 +6,8 @@
 // Candidates: the mean nearest-neighbour distance (ℓ before); √ of the mean, median and 99 %-trimmed mean of the
 // cylinder areas, the cylinder fixed (areaDoublings 0) or growing across scan lines (the default); the median
 // k-NN radius √(π r_16² / 16). The chosen ℓ is cloudSamples' own. Times: cloudSamples with the fixed and the
-// growing cylinder, medians of --repeat runs alternated, on each cloud and on a random sphere of --big points.
+// growing cylinder, medians of --repeat runs alternated, on each cloud and on a random sphere of --big points (with
+// and without 1 % outliers).
 // Usage: bench_length_scale [--points N (default 20000)] [--big N (default 1000000, 0: none)] [--repeat R (3)]
 //        [--data DIR] [--out bench/results/length_scale.json]
 #include <algorithm>
@@ -196,7 +197,11 @@ int main(int argc, char** argv) {
     }
     for (const char* file : {"kitten.xyz", "sphere_20k_normal.xyz"})
         rows.push_back(measure(file, *readInput(data + "/" + file).cloud, 0, repeat));
-    if (big > 0) rows.push_back(measure("sphere, random, big", sphereRandom(big, rng), sphereTruth(big), 1));
+    if (big > 0) {
+        rows.push_back(measure("sphere, random, big", sphereRandom(big, rng), sphereTruth(big), 1));
+        rows.push_back(measure("sphere, random, big, 1 % outliers", withOutliers(sphereRandom(big, rng), big / 100, rng),
+                               sphereTruth(big), 1));
+    }
     std::ofstream(out) << nlohmann::json{{"bench", "length_scale"}, {"points", points}, {"rows", rows}}.dump(2) << "\n";
     std::cerr << "wrote " << out << "\n";
 }

@@ -250,6 +250,13 @@ TEST_CASE("input: a cloud's length scale is sqrt(area / points), on scan lines a
         random.normals.push_back(d);
     }
     CHECK(cloudSamples(random).samples.lengthScale == Approx(std::sqrt(4 * M_PI / 20000)).epsilon(0.1));
+    PointCloud lattice;  // even: a Fibonacci lattice
+    for (int i = 0; i < 20000; ++i) {
+        const double z = 1 - (2 * i + 1) / 20000.0, r = std::sqrt(1 - z * z), a = M_PI * (3 - std::sqrt(5.0)) * i;
+        lattice.positions.emplace_back(r * std::cos(a), r * std::sin(a), z);
+        lattice.normals.push_back(lattice.positions.back());
+    }
+    CHECK(cloudSamples(lattice).samples.lengthScale == Approx(std::sqrt(4 * M_PI / 20000)).epsilon(0.05));
     // An outlier's area is that of the empty space around it; 1 % of them leave ℓ within 10 %.
     std::uniform_real_distribution<double> box(-2, 2);
     for (int i = 0; i < 200; ++i) {
@@ -297,4 +304,48 @@ TEST_CASE("input: the cylinder's growth is bounded: points on one line end, and 
     o = {};
     o.areaIsotropy = 2;
     CHECK_THROWS_AS(cloudSamples(line, o), ParameterError);
+    o = {};
+    o.areaGrowthPoints = 0;
+    CHECK_THROWS_AS(cloudSamples(line, o), ParameterError);
+}
+
+TEST_CASE("input: a cylinder never covered keeps its first area: a patch's corners and a strip's ends as the fixed cylinder's",
+          "[input]") {
+    // A quarter disc (a corner) and a strip three points wide stay anisotropic however large the cylinder: growing
+    // there would only count more of the same shape (an area up to 10× or 190× too large, measured before the rule).
+    CloudNoiseOptions fixed;
+    fixed.areaDoublings = 0;
+    for (const int width : {40, 3}) {
+        PointCloud patch;
+        for (int i = 0; i < 40; ++i)
+            for (int j = 0; j < width; ++j) {
+                patch.positions.emplace_back(0.1 * i, 0.1 * j, 0);
+                patch.normals.emplace_back(0, 0, 1);
+            }
+        const Samples grown = cloudSamples(patch).samples, first = cloudSamples(patch, fixed).samples;
+        INFO("width " << width);
+        CHECK(grown.normal == first.normal);
+        CHECK(grown.lengthScale == first.lengthScale);
+    }
+    // Two points: one line, the first cylinder.
+    PointCloud two;
+    two.positions = {Vec3d(0, 0, 0), Vec3d(1, 0, 0)};
+    two.normals = {Vec3d(0, 0, 1), Vec3d(0, 0, 1)};
+    CHECK(cloudSamples(two).samples.lengthScale == cloudSamples(two, fixed).samples.lengthScale);
+}
+
+TEST_CASE("input: a cloud's given areas are checked: their count, NaN and negative values", "[input]") {
+    PointCloud c = scanLineTorus(0.1, 0.1);
+    c.areas.assign(c.positions.size() - 1, 0.01);
+    CHECK_THROWS_WITH(cloudSamples(c), Catch::Contains("areas for"));
+    c.areas.assign(c.positions.size(), 0.01);
+    c.areas[5] = std::nan("");
+    CHECK_THROWS_WITH(cloudSamples(c), Catch::Contains("point 6 has an area"));
+    c.areas[5] = -1;
+    CHECK_THROWS_WITH(cloudSamples(c), Catch::Contains("point 6 has an area"));
+    c.areas.assign(c.positions.size(), 0.0);
+    CHECK_THROWS_WITH(cloudSamples(c), Catch::Contains("areas are all 0"));
+    c.areas.clear();
+    c.normals[0] = Vec3d::Zero();
+    CHECK_THROWS_WITH(cloudSamples(c), Catch::Contains("point 1 has a zero normal"));
 }

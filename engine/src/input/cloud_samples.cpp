@@ -1,5 +1,7 @@
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <Eigen/Eigenvalues>
 #include <nanoflann.hpp>
 #include <tbb/blocked_range.h>
@@ -33,6 +35,8 @@ double cylinderArea(const KdTree& tree, const PointCloud& cloud, std::size_t i, 
     const double len = cloud.normals[i].norm();
     if (!(R > 0) || !(len > 0)) return 0.0;
     const Vec3d nrm = cloud.normals[i] / len;
+    const std::size_t growthLimit = std::size_t(std::max(1, options.areaGrowthPoints)) * k;
+    double first = 0;
     for (int doubling = 0;; ++doubling, R *= 2) {
         ball.clear();
         tree.radiusSearch(p.data(), 2.0 * R * R, ball, nanoflann::SearchParams(32, 0, false));
@@ -47,11 +51,14 @@ double cylinderArea(const KdTree& tree, const PointCloud& cloud, std::size_t i, 
             moment += t * t.transpose();
         }
         const double area = M_PI * R * R / double(std::max<std::size_t>(inside, 1));
-        if (doubling == options.areaDoublings) return area;
+        if (doubling == 0) first = area;
         // The tangent moments are the two largest eigenvalues of `moment` (its normal one is 0).
         Eigen::SelfAdjointEigenSolver<Mat3d> eig;
         const Eigen::Vector3d ev = eig.computeDirect(moment, Eigen::EigenvaluesOnly).eigenvalues();
         if (ev[1] >= options.areaIsotropy * ev[2]) return area;
+        // Never covered (a corner, a strip, an outlier's slice of a distant surface): a larger cylinder would only
+        // count more of the same shape, so the first one's area stands.
+        if (doubling == options.areaDoublings || inside > growthLimit) return first;
     }
 }
 }  // namespace
@@ -77,9 +84,25 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
         throw ParameterError("the cylinder's isotropy (CloudNoiseOptions::areaIsotropy) must be in [0, 1] (got " +
                                  numberText(options.areaIsotropy) + ")",
                              {"CloudNoiseOptions::areaIsotropy"});
+    if (options.areaGrowthPoints < 1)
+        throw ParameterError("the cylinder's growth limit (CloudNoiseOptions::areaGrowthPoints) must be >= 1 (got " +
+                                 std::to_string(options.areaGrowthPoints) + ")",
+                             {"CloudNoiseOptions::areaGrowthPoints"});
     const std::size_t n = cloud.positions.size();
     if (n < 2) throw InputError("a point cloud needs at least 2 points (got " + std::to_string(n) + ")");
+    if (n > std::numeric_limits<std::uint32_t>::max())
+        throw InputError("a point cloud of more than 2^32 points (got " + std::to_string(n) + ")");
     if (cloud.normals.size() != n) throw InputError("the point cloud has no normals (need nx ny nz per point)");
+    for (std::size_t i = 0; i < n; ++i)
+        if (!(cloud.normals[i].norm() > 0)) throw InputError("point " + std::to_string(i + 1) + " has a zero normal");
+    if (!cloud.areas.empty()) {
+        if (cloud.areas.size() != n)
+            throw InputError("the point cloud has " + std::to_string(cloud.areas.size()) + " areas for " +
+                             std::to_string(n) + " points");
+        for (std::size_t i = 0; i < n; ++i)
+            if (!(cloud.areas[i] >= 0) || !std::isfinite(cloud.areas[i]))
+                throw InputError("point " + std::to_string(i + 1) + " has an area that is not a finite number >= 0");
+    }
 
     // === Local area. a_i = π R² / (points in the cylinder of radius R and half-height R around p_i along n_i),
     // R = 2 × the distance to the k-th neighbour. The cylinder counts the whole thickness of a noisy cloud, so the
@@ -87,11 +110,12 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     // over-estimate areas there). Scan lines (dense along, sparse across) put every one of the k neighbours on
     // p_i's own line, and so does the cylinder while R is below the lines' spacing: its points then lie along one
     // direction of the tangent disc, the count is of a line and the area is too small. R doubles (at most
-    // `areaDoublings` times) until the points' second moments about p_i in the tangent plane, which are equal
-    // (R²/4 each) for a covered disc and for a half disc at a boundary, differ by at most 1/areaIsotropy.
+    // `areaDoublings` times, and while it holds at most areaGrowthPoints × k points) until the points' second
+    // moments about p_i in the tangent plane, which are equal (R²/4 each) for a covered disc and for a half disc at
+    // a boundary, differ by at most 1/areaIsotropy; a cylinder that never gets there keeps its first area.
     CloudAdaptor adaptor{cloud.positions};
     KdTree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16));
-    tree.buildIndex();
+    if (cloud.areas.empty()) tree.buildIndex();  // given areas need no neighbours
     const std::size_t k = std::min<std::size_t>(std::size_t(std::max(1, options.areaNeighbours)), n - 1);
     std::vector<double> area(cloud.areas.empty() ? n : 0);
     // Neighbours visited together: the tree's nodes stay in cache (docs/benchmarks.md#length-scale).
@@ -117,7 +141,8 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     double keptArea = 0;
     for (std::size_t i = 0; i < kept; ++i) keptArea += areas[i];
     const double ell = std::sqrt(keptArea / double(kept));
-    if (!(ell > 0) || !std::isfinite(ell)) throw InputError("all points of the cloud coincide");
+    if (!(ell > 0) || !std::isfinite(ell))
+        throw InputError(cloud.areas.empty() ? "all points of the cloud coincide" : "the point cloud's areas are all 0");
 
     CloudSamples out;
     out.sigma = options.sigmaRel * ell;
@@ -128,9 +153,7 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     S.positionVariance.reserve(n);
     S.normalCovariance.reserve(n);
     for (std::size_t i = 0; i < n; ++i) {
-        const double len = cloud.normals[i].norm();
-        if (!(len > 0)) throw InputError("point " + std::to_string(i + 1) + " has a zero normal");
-        const Vec3d nrm = cloud.normals[i] / len;
+        const Vec3d nrm = cloud.normals[i].normalized();
         const double a = pointArea[i];
         const double sigma = cloud.sigmas.empty() ? out.sigma : cloud.sigmas[i];
         if (!(sigma > 0)) throw InputError("point " + std::to_string(i + 1) + " has sigma <= 0");

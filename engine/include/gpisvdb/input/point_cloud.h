@@ -19,6 +19,8 @@ struct CloudNoiseOptions {
     int areaNeighbours = 8; ///< k: the area estimate counts points in a cylinder of radius 2 × (k-th neighbour distance)
     int areaDoublings = 5;  ///< the cylinder's radius doubles at most this often while its points lie along a line, 0…20
     double areaIsotropy = 0.3; ///< ... that is, while their tangent second moments' ratio (min/max) is below this, 0…1
+    int areaGrowthPoints = 32; ///< ... and while it holds at most this × k points (≥ 1): past that a cylinder that is
+                               ///< still not covered (a corner, a strip, an outlier) keeps its first area
 };
 
 struct CloudSamples {
