@@ -142,7 +142,8 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     for (std::size_t i = 0; i < kept; ++i) keptArea += areas[i];
     const double ell = std::sqrt(keptArea / double(kept));
     if (!(ell > 0) || !std::isfinite(ell))
-        throw InputError(cloud.areas.empty() ? "all points of the cloud coincide" : "the point cloud's areas are all 0");
+        throw InputError(cloud.areas.empty() ? "all points of the cloud coincide"
+                                             : "the point cloud's areas are all 0 (or all but 1 %)");
 
     CloudSamples out;
     out.sigma = options.sigmaRel * ell;
