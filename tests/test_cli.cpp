@@ -11,6 +11,7 @@
 #include <random>
 #include <sstream>
 
+#include <nanovdb/util/IO.h>
 #include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
 #include <vtkDataArray.h>
@@ -42,7 +43,7 @@ TEST_CASE("cli: info describes the bunny", "[cli]") {
 }
 
 TEST_CASE("cli: evaluate writes one row per query point with the documented header", "[cli]") {
-    const std::string pts = temp("pts.xyz", "0 0 0\n0.5,0.5,0.5\n# comment\n3 3 3\n");
+    const std::string pts = temp("pts.xyz", "0 0 0\n0.5,0.5,0.5\n# comment\n30 30 30\n");
     const std::string out = temp("values.csv");
     fs::remove(out);
     const Run r = run("evaluate " + gpisvdb::test::dataPath("bunny.obj") + " --at " + pts + " -o " + out + " --quiet");
@@ -50,14 +51,23 @@ TEST_CASE("cli: evaluate writes one row per query point with the documented head
     std::ifstream in(out);
     std::string header;
     std::getline(in, header);
-    CHECK(header == "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz");
-    std::string row;
-    int rows = 0;
-    while (std::getline(in, row)) {
-        ++rows;
-        CHECK(std::count(row.begin(), row.end(), ',') == 23);
+    CHECK(header == "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz,p_inside");
+    std::vector<std::vector<double>> rows;
+    for (std::string row; std::getline(in, row);) {
+        CHECK(std::count(row.begin(), row.end(), ',') == 24);
+        std::vector<double> values;
+        std::stringstream s(row);
+        for (std::string cell; std::getline(s, cell, ',');) values.push_back(std::strtod(cell.c_str(), nullptr));
+        rows.push_back(values);
     }
-    CHECK(rows == 3);
+    REQUIRE(rows.size() == 3);
+    for (const auto& v : rows) {  // p_inside = P(φ > 1/2) for φ ~ N(gamma, c00)
+        INFO("gamma " << v[3] << " c00 " << v[7] << " p_inside " << v[24]);
+        CHECK(v[24] == Approx(0.5 * std::erfc(-(v[3] - 0.5) / std::sqrt(2 * v[7]))).margin(1e-15));
+        CHECK(v[24] >= 0.0);
+        CHECK(v[24] <= 1.0);
+    }
+    CHECK(rows[2][24] < 1e-6);  // (30, 30, 30): three bunny sizes away
 }
 
 namespace {
@@ -426,6 +436,32 @@ TEST_CASE("cli: band writes a readable .vdb and a JSON report whose values match
     const int status = std::system(("vdb_print " + vdb + " > /dev/null 2>&1").c_str());
     CHECK(WEXITSTATUS(status) == 0);
     CHECK_FALSE(readFloatGrid(vdb, "selling_weight_0"));  // only with --stencils
+}
+
+TEST_CASE("cli: band writes the occupancy as a fog grid named by --fog-name, and NanoVDB for an .nvdb output", "[cli]") {
+    const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), flags = " --sigma 2 --voxel-size 0.4 --quiet";
+    const std::string vdb = temp("fog.vdb"), nvdb = temp("fog.nvdb"), named = temp("fog_named.vdb");
+    Run r = run("band " + bunny + " -o " + vdb + flags);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const auto density = readFloatGrid(vdb, "density"), mean = readFloatGrid(vdb, "mean");
+    REQUIRE(density);
+    REQUIRE(mean);
+    CHECK(density->getGridClass() == openvdb::GRID_FOG_VOLUME);
+    CHECK(density->activeVoxelCount() > mean->activeVoxelCount());  // the band and the enclosed region
+    r = run("band " + bunny + " -o " + named + flags + " --fog-name occupancy");
+    REQUIRE(r.code == 0);
+    CHECK(readFloatGrid(named, "occupancy"));
+    CHECK_FALSE(readFloatGrid(named, "density"));
+    r = run("band " + bunny + " -o " + named + flags + " --fog-name mean");
+    CHECK(r.code == 2);
+    CHECK_THAT(r.err, Catch::Contains("--fog-name"));
+    r = run("band " + bunny + " -o " + nvdb + flags);
+    REQUIRE(r.code == 0);
+    const auto handles = nanovdb::io::readGrids(nvdb);
+    REQUIRE(handles.size() == 8);
+    CHECK(std::string(handles.back().gridMetaData()->shortGridName()) == "density");
+    CHECK(handles.back().gridMetaData()->activeVoxelCount() == std::uint64_t(density->activeVoxelCount()));
 }
 
 TEST_CASE("cli: band --stencils writes Selling offsets whose widths are stencil_width and the report's maximum", "[cli]") {

@@ -2,12 +2,14 @@
 #include <sys/wait.h>
 
 #include <catch2/catch.hpp>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
 
 #include <Eigen/SparseCore>
 #include <map>
+#include <nanovdb/util/IO.h>
 #include <openvdb/openvdb.h>
 
 #include "band_fixtures.h"
@@ -48,14 +50,14 @@ TEST_CASE("output: vdb_print reads every grid of a band file", "[output]") {
     int code = 0;
     const std::string text = runCapture("vdb_print -l " + path, code);
     REQUIRE(code == 0);
-    for (const char* name : {"mu", "mean", "stddev", "T_diag", "T_offdiag", "normal", "stencil_width"})
+    for (const char* name : {"mu", "mean", "stddev", "T_diag", "T_offdiag", "normal", "stencil_width", "density"})
         CHECK_THAT(text, Catch::Contains(std::string("Name: ") + name));
     CHECK_THAT(text, Catch::Contains("class: fog volume"));
     CHECK_THAT(text, Catch::Contains("sigma_rel: 1"));
     CHECK_THAT(text, Catch::Contains(std::to_string(band.size())));
 }
 
-TEST_CASE("output: pyopenvdb reads names, classes, voxel size, value ranges and metadata", "[output]") {
+TEST_CASE("output: pyopenvdb reads names, classes, creators, voxel size, value ranges and metadata", "[output]") {
     Band band;
     const std::string path = writeSmallBand(band);
     float lo = band.mu[0], hi = band.mu[0];
@@ -66,7 +68,8 @@ TEST_CASE("output: pyopenvdb reads names, classes, voxel size, value ranges and 
                              "print('version', meta['gpisvdb_version'])\n"
                              "for g in grids:\n"
                              "    lo, hi = g.evalMinMax()\n"
-                             "    print('|'.join([g.name, g.gridClass, '%.9g' % g.transform.voxelSize()[0], str(g.activeVoxelCount()), str(lo), str(hi)]))\n";
+                             "    print('|'.join([g.name, g.gridClass, '%.9g' % g.transform.voxelSize()[0], str(g.activeVoxelCount()), str(lo), str(hi),\n"
+                             "                    g.creator, str(g.metadata.get('is_local_space'))]))\n";
     int code = 0;
     const std::string text = runCapture("/usr/bin/python3 " + script + " " + path, code);
     INFO(text);
@@ -80,13 +83,23 @@ TEST_CASE("output: pyopenvdb reads names, classes, voxel size, value ranges and 
         std::vector<std::string> f;
         std::istringstream ls(line);
         for (std::string part; std::getline(ls, part, '|');) f.push_back(part);
-        REQUIRE(f.size() == 6);
+        REQUIRE(f.size() == 8);
         const std::string& name = f[0];
         const std::string& cls = f[1];
         const std::string& voxel = f[2];
         const std::size_t count = std::stoul(f[3]);
         ++grids;
+        INFO(name);
         CHECK(std::stod(voxel) == Approx(0.08).epsilon(1e-6));
+        CHECK(f[6] == "gpisvdb " GPISVDB_VERSION);
+        if (name == "density") {  // the occupancy: the band, and the enclosed region as tiles of 1
+            CHECK(cls == "fog volume");
+            CHECK(f[7] == "False");
+            CHECK(count > band.size());
+            CHECK(std::stod(f[4]) >= 0.0);
+            CHECK(std::stod(f[5]) == 1.0);
+            continue;
+        }
         CHECK(count == band.size());
         if (name == "mu") {
             CHECK(cls == "fog volume");
@@ -94,7 +107,7 @@ TEST_CASE("output: pyopenvdb reads names, classes, voxel size, value ranges and 
             CHECK(std::stod(f[5]) == Approx(hi).epsilon(1e-6));
         }
     }
-    CHECK(grids == 7);
+    CHECK(grids == 8);
 }
 
 namespace {
@@ -377,4 +390,103 @@ TEST_CASE("output: a band whose grids were spilled writes the same file as one w
             }
         }
     }
+}
+
+namespace {
+openvdb::GridBase::Ptr findGrid(const openvdb::GridPtrVec& grids, const std::string& name) {
+    for (const auto& g : grids)
+        if (g->getName() == name) return g;
+    return nullptr;
+}
+}  // namespace
+
+TEST_CASE("output: a NanoVDB file holds the .vdb's grids, classes and values, as NanoVDB's own reader reads them", "[output]") {
+    const Band& band = test::sphereBand();
+    std::vector<float> green(band.size());
+    for (std::size_t i = 0; i < band.size(); ++i) green[i] = 0.5f * float(i);
+    const std::vector<NamedChannel> extra{{"green", &green, 0.0f}};
+    const std::filesystem::path dir = test::scratchDir() / "nanovdb";
+    std::filesystem::create_directories(dir);
+    for (const bool half : {false, true}) {
+        INFO("half floats: " << half);
+        VdbWriteOptions options;
+        options.halfFloat = half;
+        const std::string vdbPath = (dir / "band.vdb").string(), nvdbPath = (dir / "band.nvdb").string();
+        writeBandVdb(band, vdbPath, openvdb::MetaMap(), extra, {}, options);
+        options.nanoVdb = true;
+        writeBandVdb(band, nvdbPath, openvdb::MetaMap(), extra, {}, options);
+        CHECK(isNanoVdbPath(nvdbPath));
+        CHECK_FALSE(isNanoVdbPath(vdbPath));
+
+        openvdb::io::File file(vdbPath);
+        file.open();
+        const auto grids = file.getGrids();
+        file.close();
+        const auto handles = nanovdb::io::readGrids(nvdbPath);
+        REQUIRE(handles.size() == grids->size());
+        for (std::size_t k = 0; k < handles.size(); ++k) {
+            const nanovdb::GridMetaData* meta = handles[k].gridMetaData();
+            REQUIRE(meta);
+            const std::string name = meta->shortGridName();
+            INFO(name);
+            const openvdb::GridBase::Ptr g = findGrid(*grids, name);
+            REQUIRE(g);
+            CHECK(meta->voxelSize()[0] == Approx(band.voxelSize));
+            CHECK(meta->activeVoxelCount() == g->activeVoxelCount());
+            const bool fog = g->getGridClass() == openvdb::GRID_FOG_VOLUME;
+            CHECK((meta->gridClass() == nanovdb::GridClass::FogVolume) == fog);
+            // Values as written: float32, or a half rounded (about 3 digits) in both files.
+            const double tolerance = half ? 1e-3 : 0.0;
+            if (auto f = openvdb::GridBase::grid<openvdb::FloatGrid>(g)) {
+                std::size_t compared = 0;
+                auto check = [&](auto* nano) {
+                    REQUIRE(nano);
+                    auto acc = nano->getAccessor();
+                    for (auto it = f->cbeginValueOn(); it; ++it) {
+                        const openvdb::Coord c = it.getCoord();
+                        const double a = *it, b = acc.getValue(nanovdb::Coord(c.x(), c.y(), c.z()));
+                        if (std::abs(a - b) > tolerance * std::max(1.0, std::abs(a))) FAIL("voxel " << c << ": " << a << " against " << b);
+                        ++compared;
+                        if (compared > 200000) break;  // the occupancy's interior: enough of it
+                    }
+                };
+                if (half) check(handles[k].grid<nanovdb::Fp16>());
+                else check(handles[k].grid<float>());
+                CHECK(compared > 0);
+            } else if (auto v = openvdb::GridBase::grid<openvdb::Vec3SGrid>(g)) {
+                const auto* nano = handles[k].grid<nanovdb::Vec3f>();
+                REQUIRE(nano);
+                auto acc = nano->getAccessor();
+                for (auto it = v->cbeginValueOn(); it; ++it) {
+                    const openvdb::Coord c = it.getCoord();
+                    const nanovdb::Vec3f b = acc.getValue(nanovdb::Coord(c.x(), c.y(), c.z()));
+                    for (int d = 0; d < 3; ++d)
+                        if (std::abs((*it)[d] - b[d]) > tolerance * std::max(1.0f, std::abs((*it)[d])))
+                            FAIL("voxel " << c << " component " << d << ": " << (*it)[d] << " against " << b[d]);
+                }
+            } else {
+                FAIL("a grid of type " << g->type());
+            }
+        }
+    }
+}
+
+TEST_CASE("output: the occupancy's name may not be another grid's, and an empty name leaves it out", "[output]") {
+    const Band& band = test::sphereBand();
+    std::vector<float> values(band.size(), 1.0f);
+    const std::string path = (test::scratchDir() / "named.vdb").string();
+    VdbWriteOptions options;
+    for (const std::string taken : {"mu", "stencil_width", "green"}) {
+        INFO(taken);
+        options.occupancyName = taken;
+        CHECK_THROWS_AS(writeBandVdb(band, path, openvdb::MetaMap(), {{"green", &values}}, {}, options), ParameterError);
+        CHECK_FALSE(std::filesystem::exists(path));
+    }
+    options.occupancyName = "";
+    const openvdb::GridPtrVec grids = bandGrids(band, {}, {}, options);
+    CHECK(grids.size() == 7);
+    options.occupancyName = "occupancy";
+    const openvdb::GridPtrVec named = bandGrids(band, {}, {}, options);
+    REQUIRE(named.size() == 8);
+    CHECK(named.back()->getName() == "occupancy");
 }

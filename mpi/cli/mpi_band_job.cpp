@@ -8,7 +8,8 @@
 namespace gpisvdb::cli {
 
 MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& input, const std::string& output,
-                                   const BandFlags& flags) {
+                                   BandFlags& flags) {
+    flags.vdb.nanoVdb = flags.vdb.nanoVdb || isNanoVdbPath(output);
     MpiBandCommand c;
     InputData data;
     mpi::together(ranks, [&] {

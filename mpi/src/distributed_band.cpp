@@ -191,6 +191,7 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
     BandResult local;
     together(ranks, [&] { local = bandFromVoxels(std::move(voxels), o.voxelSize, o.maxAnisotropy, progress.interruptOnly()); });
     out.local = std::move(local.band);
+    out.local.iso = o.iso;
     stats.regularised = sum(ranks, local.stats.regularised);
     stats.maxStencilL1 = int(max(ranks, std::size_t(local.stats.maxStencilL1)));
     out.balanceSeconds = since(tBalance);
@@ -218,6 +219,7 @@ void gatherInto(const Ranks& ranks, const std::vector<Value>& local, std::vector
 Band gatherBand(const Ranks& ranks, const DistributedBand& d) {
     Band b;
     b.voxelSize = d.local.voxelSize;
+    b.iso = d.local.iso;
     using C3 = std::array<std::int32_t, 3>;
     using F3 = std::array<float, 3>;
     static_assert(sizeof(openvdb::Coord) == sizeof(C3) && sizeof(openvdb::Vec3f) == sizeof(F3));

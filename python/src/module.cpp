@@ -24,6 +24,7 @@
 #include "gpisvdb/model/load_model.h"
 #include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/output/mean_surface.h"
+#include "gpisvdb/output/occupancy.h"
 #include "gpisvdb/output/temporary_path.h"
 #include "gpisvdb/output/write_vdb.h"
 #include "gpisvdb/tasks/geodesic.h"
@@ -93,6 +94,7 @@ std::string pythonMessage(const Error& error) {
         {"SmoothedDistanceOptions::maxBytes", "max_memory"},
         {"GeodesicOptions::maxBytes", "max_memory"},
         {"VdbWriteOptions::halfFloat", "half"},
+        {"VdbWriteOptions::occupancyName", "fog_name"},
     };
     std::string text = error.what();
     for (const std::string& field : error.parameters()) {
@@ -252,9 +254,9 @@ py::dict evaluateModel(const Model& m, py::handle points, std::optional<double> 
     if (qmc < 1) throw ParameterError("qmc must be >= 1 (got " + std::to_string(qmc) + ")");
     const py::ssize_t n = py::ssize_t(xs.size());
     py::array_t<double> mean(n), grad({n, py::ssize_t(3)}), cov({n, py::ssize_t(4), py::ssize_t(4)}), mu(n),
-        T({n, py::ssize_t(3), py::ssize_t(3)});
+        T({n, py::ssize_t(3), py::ssize_t(3)}), inside(n);
     double *pm = mean.mutable_data(), *pg = grad.mutable_data(), *pc = cov.mutable_data(), *pmu = mu.mutable_data(),
-           *pT = T.mutable_data();
+           *pT = T.mutable_data(), *pin = inside.mutable_data();
     Work work(threads, std::move(progress));
     work([&](const Progress& progress) {
         const QmcRule rule(qmc);
@@ -270,10 +272,12 @@ py::dict evaluateModel(const Model& m, py::handle points, std::optional<double> 
             pmu[i] = d.mu;
             for (int r = 0; r < 3; ++r)
                 for (int c = 0; c < 3; ++c) pT[9 * i + std::size_t(3 * r + c)] = d.T(r, c);
+            pin[i] = insideProbability(v.mean[0], std::sqrt(std::max(v.cov(0, 0), 0.0)), u);
         }
         return 0;
     });
-    return py::dict("mean"_a = mean, "gradient"_a = grad, "covariance"_a = cov, "mu"_a = mu, "T"_a = T);
+    return py::dict("mean"_a = mean, "gradient"_a = grad, "covariance"_a = cov, "mu"_a = mu, "T"_a = T,
+                    "p_inside"_a = inside);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -372,7 +376,7 @@ py::dict bandReport(const PyBand& b) {
 }
 
 /// File metadata, as the command line writes it (docs/band.md, "The .vdb file"); `mesh` reads 'iso'.
-openvdb::MetaMap bandMetadata(const PyBand& b, bool half) {
+openvdb::MetaMap bandMetadata(const PyBand& b, bool half, const std::string& fogName) {
     openvdb::MetaMap meta;
     const InputSamples& in = b.model->input;
     const ModelOptions& mo = b.modelOptions;
@@ -402,6 +406,7 @@ openvdb::MetaMap bandMetadata(const PyBand& b, bool half) {
     meta.insertMeta("band_voxels", openvdb::Int64Metadata(openvdb::Int64(b.band().size())));
     meta.insertMeta("band_mass", openvdb::DoubleMetadata(b.band().mass()));
     meta.insertMeta("half_float", openvdb::BoolMetadata(half));
+    meta.insertMeta("occupancy_grid", openvdb::StringMetadata(fogName));
     return meta;
 }
 
@@ -431,7 +436,7 @@ void writeAtomically(const std::string& path, Write&& write, int threads) {
 }
 
 void writeBand(const PyBand& b, const std::string& path, bool half, bool stencils, py::object channels, py::object vectors,
-               int threads) {
+               const std::string& fogName, bool nanovdb, int threads) {
     const std::size_t n = b.band().size();
     std::vector<std::string> names;
     std::vector<std::vector<float>> scalar, vector;
@@ -453,7 +458,9 @@ void writeBand(const PyBand& b, const std::string& path, bool half, bool stencil
     VdbWriteOptions vo;
     vo.halfFloat = half;
     vo.sellingStencils = stencils;
-    const openvdb::MetaMap meta = bandMetadata(b, half);
+    vo.occupancyName = fogName;
+    vo.nanoVdb = nanovdb || isNanoVdbPath(path);
+    const openvdb::MetaMap meta = bandMetadata(b, half, fogName);
     writeAtomically(path, [&](const std::string& temp) { writeBandVdb(b.band(), temp, meta, extra, vec, vo); }, threads);
 }
 
@@ -681,7 +688,9 @@ py::tuple meanSurfaceTask(const PyBand& b, std::optional<double> iso, py::object
             if (components[i] == 1) extra.push_back({"extra_" + names[i], &data[i]});
             else vec.push_back({"extra_" + names[i], &data[i]});
         }
-        const openvdb::GridPtrVec grids = bandGrids(b.band(), extra, vec);
+        VdbWriteOptions noOccupancy;
+        noOccupancy.occupancyName.clear();
+        const openvdb::GridPtrVec grids = bandGrids(b.band(), extra, vec, noOccupancy);
         std::map<std::string, openvdb::GridBase::Ptr> byName;
         for (const auto& g : grids) byName[g->getName()] = g;
         const auto mean = openvdb::gridPtrCast<openvdb::FloatGrid>(byName.at("mean"));
@@ -833,6 +842,7 @@ Returns a dict of float64 arrays:
   covariance  (n, 4, 4)  covariance of (phi, d/dx phi, d/dy phi, d/dz phi)
   mu          (n,)       surface density, world units^-1 (expected area per volume)
   T           (n, 3, 3)  tangent tensor, world units^-1 (trace 2 mu)
+  p_inside    (n,)       P(phi > u), the probability of being inside
 The same numbers as `gpisvdb evaluate`'s CSV.)doc")
         .def_property_readonly("length_scale", [](const Model& m) { return m.loaded->input.samples.lengthScale; },
                                "l: mean edge length (soup) or sqrt(area / points) (cloud), world units")
@@ -909,12 +919,14 @@ Tasks: green, geodesic, spectrum, regress, hodge, smoothed_distance, mean_surfac
             return nearestBandVoxel(b.band(), points3(point, "point", true).front());
         }, "point"_a, "Linear index of the band voxel nearest a world point (x, y, z).")
         .def("write_vdb", &writeBand, "path"_a, py::kw_only(), "half"_a = false, "stencils"_a = false, "channels"_a = py::none(),
-             "vectors"_a = py::none(), "threads"_a = 0,
+             "vectors"_a = py::none(), "fog_name"_a = VdbWriteOptions{}.occupancyName, "nanovdb"_a = false, "threads"_a = 0,
              R"doc(Writes the band as an OpenVDB file, as `gpisvdb band` does (docs/band.md, "The .vdb file").
 
-Grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width; with stencils=True the Selling stencils
-(selling_weight_0..5, selling_offset_0..5); then `channels` (dict name -> (N,) array, e.g. {'green': g['values']})
-as float grids and `vectors` (dict name -> (N, 3) array) as vec3 grids. half=True stores 16-bit floats.
+Grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width, the occupancy fog volume P(phi > u) named
+`fog_name` ('density', what Blender and Houdini render without set-up; '' for none); with stencils=True the Selling
+stencils (selling_weight_0..5, selling_offset_0..5); then `channels` (dict name -> (N,) array, e.g.
+{'green': g['values']}) as float grids and `vectors` (dict name -> (N, 3) array) as vec3 grids. half=True stores
+16-bit floats. nanovdb=True, or a path ending in .nvdb, writes NanoVDB instead (docs/band.md#nanovdb).
 Written under a temporary name and renamed: an error or Ctrl-C leaves no file. Raises OutputError.)doc")
         .def("green", &green, "source"_a, py::kw_only(), "tolerance"_a = PcgOptions{}.tolerance,
              "max_iterations"_a = PcgOptions{}.maxIterations, "preconditioner"_a = "auto", "threads"_a = 0, "progress"_a = py::none(),

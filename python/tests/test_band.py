@@ -77,7 +77,7 @@ def test_write_vdb_is_read_back_by_pyopenvdb_and_equals_the_command_line_file(ba
     import pyopenvdb
     grids, meta = pyopenvdb.readAll(str(ours))
     names = {g.name for g in grids}
-    assert {"mu", "mean", "stddev", "T_diag", "T_offdiag", "normal", "stencil_width"} <= names
+    assert {"mu", "mean", "stddev", "T_diag", "T_offdiag", "normal", "stencil_width", "density"} <= names
     assert meta["iso"] == 0.5 and meta["voxel_size"] == VOXEL
     for name, ref in [("mu", band.mu), ("mean", band.mean), ("stddev", band.stddev), ("T_diag", band.T[:, :3]),
                       ("normal", band.normal)]:
@@ -88,6 +88,25 @@ def test_write_vdb_is_read_back_by_pyopenvdb_and_equals_the_command_line_file(ba
     mu_grid = pyopenvdb.read(str(ours), "mu")
     assert mu_grid.activeVoxelCount() == len(band)
     assert mu_grid.transform.voxelSize()[0] == pytest.approx(VOXEL)
+
+
+def test_write_vdb_names_the_occupancy_and_writes_nanovdb(band, tmp_path):
+    import pyopenvdb
+    band.write_vdb(str(tmp_path / "fog.vdb"), fog_name="occupancy")
+    grids, meta = pyopenvdb.readAll(str(tmp_path / "fog.vdb"))
+    fog = {g.name: g for g in grids}["occupancy"]
+    assert fog.gridClass == "fog volume" and meta["occupancy_grid"] == "occupancy"
+    assert fog.activeVoxelCount() > len(band)  # the band and the region it encloses
+    lo, hi = fog.evalMinMax()
+    assert 0 <= lo and hi == 1
+    band.write_vdb(str(tmp_path / "plain.vdb"), fog_name="")
+    assert "density" not in {g.name for g in pyopenvdb.readAll(str(tmp_path / "plain.vdb"))[0]}
+    with pytest.raises(gpisvdb.ParameterError, match="fog_name"):
+        band.write_vdb(str(tmp_path / "bad.vdb"), fog_name="mu")
+    band.write_vdb(str(tmp_path / "band.nvdb"))
+    with open(tmp_path / "band.nvdb", "rb") as f:
+        assert f.read(8) == b"NanoVDB0"  # NanoVDB's file magic, not OpenVDB's
+    assert not (tmp_path / "bad.vdb").exists()
 
 
 def test_write_vdb_half_channels_and_errors(band, tmp_path):

@@ -26,6 +26,7 @@ def test_evaluate_equals_the_command_line_csv(model, sphere_obj, tmp_path):
         "covariance": rows[:, [7 + i for i in range(10)]],
         "mu": rows[:, 17],
         "T": rows[:, 18:24],
+        "p_inside": rows[:, 24],
     }
     np.testing.assert_array_equal(rows[:, :3], points)
     np.testing.assert_array_equal(got["mean"], expected["mean"])
@@ -33,6 +34,7 @@ def test_evaluate_equals_the_command_line_csv(model, sphere_obj, tmp_path):
     np.testing.assert_array_equal(np.array([got["covariance"][:, r, c] for r, c in upper4]).T, expected["covariance"])
     np.testing.assert_array_equal(got["mu"], expected["mu"])
     np.testing.assert_array_equal(np.array([got["T"][:, r, c] for r, c in upper3]).T, expected["T"])
+    np.testing.assert_array_equal(got["p_inside"], expected["p_inside"])
     # The model of the arrays is the model of the file.
     direct = model.evaluate(points)
     for key in expected:
@@ -46,6 +48,15 @@ def test_evaluate_shapes_and_symmetry(model):
     np.testing.assert_allclose(r["covariance"][0], r["covariance"][0].T)
     np.testing.assert_allclose(np.trace(r["T"][0]), 2 * r["mu"][0], rtol=1e-9)
     assert r["mu"][0] > 0
+
+
+def test_p_inside_is_the_probability_that_phi_exceeds_the_level(model):
+    from math import erfc, sqrt
+    r = model.evaluate([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 3.0]])
+    for i in range(3):  # P(phi > 1/2) for phi ~ N(mean, c00)
+        z = (r["mean"][i] - 0.5) / sqrt(r["covariance"][i, 0, 0])
+        assert r["p_inside"][i] == pytest.approx(0.5 * erfc(-z / sqrt(2)), abs=1e-15)
+    assert r["p_inside"][0] > 0.99 and r["p_inside"][2] < 1e-6  # the unit sphere's centre, and far outside
 
 
 def test_model_properties_are_in_world_units(model, sphere):

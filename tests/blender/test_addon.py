@@ -4,6 +4,7 @@
 # installing the add-on touches nothing of the user's.
 import os
 import shutil
+import subprocess
 import sys
 import time
 
@@ -51,6 +52,51 @@ check(grids.get("green") == "FLOAT", f"'green' is a FLOAT grid: {grids}")
 material = volumes[0].data.materials[0]
 attributes = {n.attribute_name for n in material.node_tree.nodes if n.type == "ATTRIBUTE"}
 check(attributes == {"mu", "green"}, f"the material reads mu (density) and green (colour): {attributes}")
+
+check(grids.get("density") == "FLOAT", f"'density' (the occupancy) is a FLOAT grid: {grids}")
+vdb_path = bpy.path.abspath(volume.filepath)
+
+
+def render_alpha(vdb_file, tag):
+    """Mean alpha of a 24 x 24 Cycles render of `vdb_file` imported as is: no material, no node set-up."""
+    scene = bpy.data.scenes.new(f"fog {tag}")
+    bpy.ops.object.volume_import(filepath=vdb_file, files=[{"name": os.path.basename(vdb_file)}],
+                                 directory=os.path.dirname(vdb_file), align="WORLD", location=(0.0, 0.0, 0.0))
+    imported = bpy.context.active_object
+    for collection in imported.users_collection:
+        collection.objects.unlink(imported)
+    scene.collection.objects.link(imported)
+    camera = bpy.data.objects.new(f"camera {tag}", bpy.data.cameras.new(f"camera {tag}"))
+    camera.location = (3.0, -6.0, 0.0)  # looking along +y at the sphere about (3, 0, 0)
+    camera.rotation_euler = (1.5707963, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 4
+    scene.cycles.use_denoising = False  # Debian's Blender is built without OpenImageDenoise
+    for layer in scene.view_layers:
+        layer.cycles.use_denoising = False
+    scene.render.film_transparent = True
+    scene.render.resolution_x = scene.render.resolution_y = 24
+    scene.render.resolution_percentage = 100
+    scene.render.filepath = os.path.join(out_dir, f"fog_{tag}.png")
+    bpy.ops.render.render(write_still=True, scene=scene.name)
+    image = bpy.data.images.load(scene.render.filepath)
+    alpha = list(image.pixels)[3::4]
+    return sum(alpha) / len(alpha)
+
+
+# === The occupancy renders as a volume's density with no set-up: Blender's default volume material reads the grid
+# called "density". Without it (--fog-name ""), the same import renders nothing.
+bare = os.path.join(out_dir, "no_density.vdb")
+status = subprocess.run([gpisvdb_exe, "band", os.path.join(out_dir, [f for f in os.listdir(out_dir)
+                                                                     if f.endswith("_green_input.obj")][0]),
+                         "-o", bare, "--sigma", "0.25", "--voxel-size", "0.1", "--fog-name", "", "--quiet"])
+check(status.returncode == 0, "a band without the occupancy grid is written")
+with_fog, without_fog = render_alpha(vdb_path, "density"), render_alpha(bare, "none")
+check(with_fog > 0.05, f"the occupancy renders: mean alpha {with_fog:.3f}")
+check(without_fog < 0.01, f"without a density grid nothing renders: mean alpha {without_fog:.3f}")
 
 surfaces = [o for o in bpy.data.objects if o.type == "MESH" and o.name.endswith("mean surface")]
 check(len(surfaces) == 1, "one mean-surface mesh")

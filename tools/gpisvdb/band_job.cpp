@@ -1,6 +1,8 @@
 #include "band_job.h"
 
 #include <sys/resource.h>
+
+#include <algorithm>
 #include <unistd.h>
 
 #include <chrono>
@@ -57,6 +59,16 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
     cmd.add_flag("--half", f.vdb.halfFloat, "store the .vdb grids as 16-bit floats (half the file, about 3 significant digits)");
     cmd.add_flag("--stencils", f.vdb.sellingStencils,
                  "also write the Selling stencils (selling_weight_0..5, selling_offset_0..5), from which L can be rebuilt");
+    cmd.add_option("--fog-name", f.vdb.occupancyName,
+                   "name of the occupancy fog volume P(phi > u), the probability of being inside (\"density\": what "
+                   "Blender and Houdini render without set-up; \"\": not written)")
+        ->capture_default_str()
+        ->check([](const std::string& name) {
+            const auto& taken = bandGridNames();
+            return std::find(taken.begin(), taken.end(), name) == taken.end() ? std::string()
+                                                                             : "'" + name + "' is one of the band's own grids";
+        });
+    cmd.add_flag("--nanovdb", f.vdb.nanoVdb, "write the grids as NanoVDB (also chosen by an output ending in .nvdb)");
 }
 
 DefaultBandOptions defaultBandOptions(const BandFlags& flags) {
@@ -121,7 +133,8 @@ std::vector<std::string> bandWarnings(const BandJob& job, const BandFlags& flags
     return w;
 }
 
-BandCommand startBandCommand(const std::string& input, const std::string& output, const BandFlags& flags) {
+BandCommand startBandCommand(const std::string& input, const std::string& output, BandFlags& flags) {
+    flags.vdb.nanoVdb = flags.vdb.nanoVdb || isNanoVdbPath(output);
     const InputData data = readInput(input);
     BandCommand c;
     c.out = std::make_unique<AtomicOutput>(output);
@@ -244,6 +257,7 @@ openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
     meta.insertMeta("band_voxels", openvdb::Int64Metadata(openvdb::Int64(job.result.band.size())));
     meta.insertMeta("band_mass", openvdb::DoubleMetadata(job.result.band.mass()));
     meta.insertMeta("half_float", openvdb::BoolMetadata(flags.vdb.halfFloat));
+    meta.insertMeta("occupancy_grid", openvdb::StringMetadata(flags.vdb.occupancyName));
     return meta;
 }
 

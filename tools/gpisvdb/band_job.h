@@ -27,7 +27,7 @@ struct BandFlags {
     VoxelValues voxelValues = VoxelValues::Point;  ///< --voxel-values
     std::string maxMemory;  ///< "8G", "512M", "1e9"; empty: half the RAM
     std::string report;     ///< JSON report path; empty: none
-    VdbWriteOptions vdb;    ///< --half
+    VdbWriteOptions vdb;    ///< --half, --stencils, --fog-name, --nanovdb (or an output ending in .nvdb)
 };
 void addBandFlags(CLI::App& cmd, BandFlags& flags);
 
@@ -62,14 +62,15 @@ DefaultBandOptions defaultBandOptions(const BandFlags& flags);
 BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress, const BandBuilder& build = {});
 
 /// What every band command opens before its own work: the input read, the output and (with --report) the report
-/// file opened atomically, the progress bar; then the band built.
+/// file opened atomically, the progress bar; then the band built. An output ending in .nvdb sets
+/// flags.vdb.nanoVdb.
 struct BandCommand {
     std::unique_ptr<AtomicOutput> out;
     std::unique_ptr<AtomicOutput> report;  ///< null without --report
     Progress progress;
     BandJob job;
 };
-BandCommand startBandCommand(const std::string& input, const std::string& output, const BandFlags& flags);
+BandCommand startBandCommand(const std::string& input, const std::string& output, BandFlags& flags);
 
 /// Whether a command writes the band's own grids to a side file before its long stage and frees their channels
 /// (SpilledBandGrids, docs/memory.md#spill).

@@ -18,7 +18,8 @@ void addBand(CLI::App& app, Action& action) {
     cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
     cmd->add_option("-o,--output", a->output, "output .vdb")->required();
     addBandFlags(*cmd, a->flags);
-    cmd->footer("Writes grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width (voxel centres at h*k);\n"
+    cmd->footer("Writes grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width (voxel centres at h*k) and\n"
+                "density, the probability of being inside (--fog-name); an output ending in .nvdb is NanoVDB;\n"
                 "with --stencils also selling_weight_0..5 and selling_offset_0..5 (L can be rebuilt from them).\n"
                 "Example:\n  gpisvdb band bunny.obj -o bunny.vdb --sigma 1 --report bunny.json");
     cmd->callback([&action, a] {

@@ -149,7 +149,7 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
 
     // === Outputs: the .vdb, the mean surface with every scalar field, the path
     t = Clock::now();
-    const openvdb::GridPtrVec grids = bandGrids(band, channels);
+    const openvdb::GridPtrVec grids = bandGrids(band, channels, {}, flags.vdb);
     openvdb::MetaMap meta = bandMetadata(job, flags);
     meta.insertMeta("green_source", openvdb::Vec3DMetadata(openvdb::Vec3d(kSource.data())));
     meta.insertMeta("geodesic_target", openvdb::Vec3DMetadata(openvdb::Vec3d(kTarget.data())));

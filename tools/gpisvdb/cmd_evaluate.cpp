@@ -9,6 +9,7 @@
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/kacrice/kac_rice.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/output/occupancy.h"
 #include "memory_stage.h"
 
 namespace gpisvdb::cli {
@@ -57,12 +58,13 @@ void addEvaluate(CLI::App& app, Action& action) {
     cmd->add_option("--at", a->at, "query points, one 'x y z' per line (world units)")->required();
     cmd->add_option("-o,--output", a->output, "output CSV")->required();
     addModelFlags(*cmd, a->flags, true);
-    cmd->add_option("--iso", a->iso, "iso-value u of the surface phi = u, for mu and T (default: 0.5 winding, 0 regression)");
+    cmd->add_option("--iso", a->iso, "iso-value u of the surface phi = u, for mu, T and p_inside (default: 0.5 winding, 0 regression)");
     cmd->add_option("--qmc", a->qmc, "QMC points S for mu and T (>= 1)")->capture_default_str();
     addStageFlags(*cmd, a->stage);
     cmd->footer("Columns: x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33 (c: covariance of\n"
                 "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row), then the Kac-Rice surface\n"
-                "density mu and tangent tensor T: mu,Txx,Txy,Txz,Tyy,Tyz,Tzz (world units^-1).\n"
+                "density mu and tangent tensor T: mu,Txx,Txy,Txz,Tyy,Tyz,Tzz (world units^-1), then p_inside,\n"
+                "the probability P(phi > u) that the point lies inside the surface.\n"
                 "Example:\n  gpisvdb evaluate bunny.obj --at points.xyz -o values.csv --sigma 0.25");
     cmd->callback([&action, a] {
         action = [a] {
@@ -93,7 +95,7 @@ void addEvaluate(CLI::App& app, Action& action) {
             const bool stageOnly = resetPeakResident();
             const auto values = m.model->evaluate(xs, makeProgress(a->flags.quiet));
             std::ofstream csv(out.tempPath());
-            csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz\n"
+            csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz,p_inside\n"
                 << std::setprecision(17);
             for (std::size_t i = 0; i < xs.size(); ++i) {
                 const ValueGradient& v = values[i];
@@ -105,7 +107,7 @@ void addEvaluate(CLI::App& app, Action& action) {
                 csv << ',' << d.mu;
                 for (int r = 0; r < 3; ++r)
                     for (int c = r; c < 3; ++c) csv << ',' << d.T(r, c);
-                csv << '\n';
+                csv << ',' << insideProbability(v.mean[0], std::sqrt(std::max(v.cov(0, 0), 0.0)), iso) << '\n';
             }
             csv.close();
             if (!csv) throw OutputError(a->output + ": writing failed (disk full?)");

@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -59,6 +60,7 @@ struct Temporaries {
     // Outputs this run already renamed into place: a command with several outputs (a .vdb, then its report)
     // interrupted between two commits takes the first back, so that "no output written" stays true.
     std::vector<std::string> committed;
+    bool interruptReported = false;  ///< main has written its one line (reportInterrupted)
 };
 
 /// Removes the temporaries and the outputs committed so far; the caller holds the mutex.
@@ -110,10 +112,21 @@ void watchdog(int signals, int wakeRead, std::string message) {
     Temporaries& t = temporaries();
     t.mutex.lock();  // held until _exit: no output can be registered, committed or left behind meanwhile
     removeOutputsLocked(t);
-    [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message.data(), message.size());
+    // main may have reported the interruption already and be ending slowly (freeing a large band, a sanitizer's
+    // exit checks): one message, not two.
+    if (!t.interruptReported) {
+        [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message.data(), message.size());
+    }
     ::_exit(128 + gSignal.load());
 }
 }  // namespace
+
+void reportInterrupted(const std::string& message) {
+    Temporaries& t = temporaries();
+    std::lock_guard<std::mutex> lock(t.mutex);
+    std::cerr << message << std::flush;
+    t.interruptReported = true;
+}
 
 void removeCommittedOutputs() {
     Temporaries& t = temporaries();
@@ -220,6 +233,7 @@ std::string errorMessage(const Error& error) {
         {"SmoothedDistanceOptions::maxBytes", "--max-memory"},
         {"GeodesicOptions::maxBytes", "--max-memory"},
         {"VdbWriteOptions::halfFloat", "--half"},
+        {"VdbWriteOptions::occupancyName", "--fog-name"},
         {"RenderPanel::logScale", "--log"},
         {"RenderPanel::slice", "--slice"},
     };

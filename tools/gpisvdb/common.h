@@ -53,6 +53,9 @@ private:
 /// After an interrupt or an error: removes the files earlier AtomicOutput::commit() calls of this run put in place
 /// (a command stopped between its .vdb and its report leaves neither).
 void removeCommittedOutputs();
+/// Writes main's line for an interruption to stderr, after which the watchdog, if it fires while the process
+/// ends, exits without a second line.
+void reportInterrupted(const std::string& message);
 
 /// A directory of outputs written under a temporary name beside the target and moved into it on commit()
 /// (each entry renamed; an existing target keeps its other files); removed if never committed.

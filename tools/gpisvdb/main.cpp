@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
         action();
     } catch (const Cancelled&) {
         cli::removeCommittedOutputs();
-        std::cerr << "gpisvdb: interrupted, no output written\n";
+        cli::reportInterrupted("gpisvdb: interrupted, no output written\n");
         return 128 + (cli::interruptSignal() ? cli::interruptSignal() : SIGINT);
     } catch (const Error& e) {
         cli::removeCommittedOutputs();  // all of a command's outputs or none

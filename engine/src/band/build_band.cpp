@@ -184,6 +184,7 @@ BandResult finish(FoundVoxels&& found, const BandOptions& o, const BandStats& st
     progress.checkInterrupt();
     const auto t = Clock::now();
     BandResult r = std::move(found).assemble(o.voxelSize, progress.interruptOnly());
+    r.band.iso = o.iso;
     const BandStats own = r.stats;
     r.stats = stats;
     r.stats.finishSeconds = since(t);

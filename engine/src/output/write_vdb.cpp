@@ -16,12 +16,15 @@
 #include <openvdb/io/io.h>
 
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/output/occupancy.h"
+#include "nanovdb_writer.h"
 
 namespace gpisvdb {
 
 namespace {
 
 constexpr double kHalfMax = 65504.0;  // the largest finite half float
+const char* const kCreator = "gpisvdb " GPISVDB_VERSION;
 
 template <class GridT, class Value>
 typename GridT::Ptr channel(const Band& band, const std::string& name, const Value& value,
@@ -88,8 +91,23 @@ void checkFiniteGrid(const openvdb::GridBase::ConstPtr& g, bool half) {
 /// Makes one grid when called; the band's writer makes, checks and writes them one at a time.
 using GridMaker = std::function<openvdb::GridBase::Ptr()>;
 
-/// The band's own grids: mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width.
-std::vector<GridMaker> ownGridMakers(const Band& band) {
+/// The occupancy's name must not be another grid's: a file with two grids of one name reads as either.
+void checkOccupancyName(const VdbWriteOptions& options, const std::vector<NamedChannel>& extra,
+                        const std::vector<NamedVectorChannel>& vectors) {
+    const std::string& name = options.occupancyName;
+    if (name.empty()) return;
+    bool taken = std::find(bandGridNames().begin(), bandGridNames().end(), name) != bandGridNames().end();
+    for (const NamedChannel& c : extra) taken = taken || c.name == name;
+    for (const NamedVectorChannel& c : vectors) taken = taken || c.name == name;
+    if (taken)
+        throw ParameterError("the occupancy grid's name '" + name + "' (VdbWriteOptions::occupancyName) is "
+                             "another grid's: choose another",
+                             {"VdbWriteOptions::occupancyName"});
+}
+
+/// The band's own grids: mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width, and the occupancy unless
+/// options.occupancyName is empty.
+std::vector<GridMaker> ownGridMakers(const Band& band, const VdbWriteOptions& options) {
     if (band.mean.size() != band.size() || band.stddev.size() != band.size() || band.T.size() != band.size() ||
         band.normal.size() != band.size())
         throw Error("the band's channels were released after a spill: write it with its SpilledBandGrids");
@@ -119,6 +137,13 @@ std::vector<GridMaker> ownGridMakers(const Band& band) {
     makers.push_back([&band] {
         return channel<openvdb::FloatGrid>(band, "stencil_width", [&](std::size_t i) { return float(band.stencil[i].width); });
     });
+    if (!options.occupancyName.empty()) {
+        makers.push_back([&band, name = options.occupancyName]() -> openvdb::GridBase::Ptr {
+            auto grid = occupancyGrid(band, name);
+            grid->insertMeta("units", openvdb::StringMetadata("probability"));
+            return grid;
+        });
+    }
     return makers;
 }
 
@@ -157,9 +182,10 @@ std::vector<GridMaker> channelGridMakers(const Band& band, const std::vector<Nam
 }
 
 std::vector<GridMaker> bandGridMakers(const Band& band, const std::vector<NamedChannel>& extra,
-                                      const std::vector<NamedVectorChannel>& vectors) {
+                                      const std::vector<NamedVectorChannel>& vectors, const VdbWriteOptions& options) {
     std::vector<GridMaker> makers = channelGridMakers(band, extra, vectors);  // checked before the band's grids are made
-    std::vector<GridMaker> own = ownGridMakers(band);
+    checkOccupancyName(options, extra, vectors);
+    std::vector<GridMaker> own = ownGridMakers(band, options);
     makers.insert(makers.begin(), own.begin(), own.end());
     return makers;
 }
@@ -239,15 +265,22 @@ std::vector<std::string> writeGridsStreaming(const std::vector<GridMaker>& maker
     std::vector<std::string> names;
     const std::string temp = path + ".part" + std::to_string(::getpid());
     try {
-        GridStreamWriter writer(temp, path, metadata, makers.size());
+        const bool nano = options.nanoVdb;
+        std::unique_ptr<GridStreamWriter> vdb;
+        std::unique_ptr<NanoVdbStreamWriter> nvdb;
+        if (nano) nvdb = std::make_unique<NanoVdbStreamWriter>(temp, path, options.halfFloat);
+        else vdb = std::make_unique<GridStreamWriter>(temp, path, metadata, makers.size());
         for (const GridMaker& make : makers) {
             openvdb::GridBase::Ptr grid = make();
             checkFiniteGrid(grid, options.halfFloat);
             grid->setSaveFloatAsHalf(options.halfFloat);
-            writer.write(grid);
+            grid->setCreator(kCreator);
+            if (nano) nvdb->write(grid);
+            else vdb->write(grid);
             names.push_back(grid->getName());
         }
-        writer.close();
+        if (nano) nvdb->close();
+        else vdb->close();
     } catch (const openvdb::Exception& e) {
         std::remove(temp.c_str());
         throw OutputError(path + ": cannot write the VDB file: " + e.what());
@@ -264,11 +297,19 @@ std::vector<std::string> writeGridsStreaming(const std::vector<GridMaker>& maker
 
 }  // namespace
 
+const std::vector<std::string>& bandGridNames() {
+    static const std::vector<std::string> names{"mu", "mean", "stddev", "T_diag", "T_offdiag", "normal", "stencil_width"};
+    return names;
+}
+
 openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>& extra,
-                              const std::vector<NamedVectorChannel>& vectors) {
+                              const std::vector<NamedVectorChannel>& vectors, const VdbWriteOptions& options) {
     openvdb::initialize();
     openvdb::GridPtrVec grids;
-    for (const GridMaker& make : bandGridMakers(band, extra, vectors)) grids.push_back(make());
+    for (const GridMaker& make : bandGridMakers(band, extra, vectors, options)) {
+        grids.push_back(make());
+        grids.back()->setCreator(kCreator);
+    }
     return grids;
 }
 
@@ -283,7 +324,16 @@ void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const o
               const VdbWriteOptions& options) {
     openvdb::initialize();
     for (const auto& g : grids) checkFiniteGrid(g, options.halfFloat);
-    for (auto& g : grids) g->setSaveFloatAsHalf(options.halfFloat);
+    for (auto& g : grids) {
+        g->setSaveFloatAsHalf(options.halfFloat);
+        g->setCreator(kCreator);
+    }
+    if (options.nanoVdb) {
+        std::vector<GridMaker> makers;
+        for (const auto& g : grids) makers.push_back([g] { return g; });
+        writeGridsStreaming(makers, path, metadata, options);
+        return;
+    }
     try {
         openvdb::io::File file(path);
         file.setCompression(openvdb::io::COMPRESS_BLOSC);
@@ -297,7 +347,7 @@ void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const o
 void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
                   const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors,
                   const VdbWriteOptions& options) {
-    std::vector<GridMaker> makers = bandGridMakers(band, extra, vectors);
+    std::vector<GridMaker> makers = bandGridMakers(band, extra, vectors, options);
     if (options.sellingStencils) {
         std::vector<GridMaker> selling = sellingGridMakers(band);
         makers.insert(makers.end(), selling.begin(), selling.end());
@@ -306,9 +356,12 @@ void writeBandVdb(const Band& band, const std::string& path, const openvdb::Meta
 }
 
 SpilledBandGrids::SpilledBandGrids(const Band& band, std::string sidePath, const VdbWriteOptions& options)
-    : path_(std::move(sidePath)), halfFloat_(options.halfFloat) {
-    const std::vector<GridMaker> makers = ownGridMakers(band);
-    names_ = writeGridsStreaming(makers, path_, openvdb::MetaMap(), options);
+    : path_(std::move(sidePath)), halfFloat_(options.halfFloat), occupancyName_(options.occupancyName) {
+    checkOccupancyName(options, {}, {});
+    const std::vector<GridMaker> makers = ownGridMakers(band, options);
+    VdbWriteOptions side = options;
+    side.nanoVdb = false;  // read back by OpenVDB
+    names_ = writeGridsStreaming(makers, path_, openvdb::MetaMap(), side);
 }
 
 SpilledBandGrids::~SpilledBandGrids() { std::remove(path_.c_str()); }
@@ -328,10 +381,11 @@ void releaseSpilledChannels(Band& band) {
 void writeBandVdb(const Band& band, const SpilledBandGrids& spilled, const std::string& path,
                   const openvdb::MetaMap& metadata, const std::vector<NamedChannel>& extra,
                   const std::vector<NamedVectorChannel>& vectors, const VdbWriteOptions& options) {
-    if (spilled.halfFloat() != options.halfFloat)
-        throw Error("the band's grids were spilled with another half-float setting than the file is written with");
+    if (spilled.halfFloat() != options.halfFloat || spilled.occupancyName() != options.occupancyName)
+        throw Error("the band's grids were spilled with another half-float setting or occupancy name than the file is written with");
     openvdb::initialize();
     std::vector<GridMaker> makers = channelGridMakers(band, extra, vectors);
+    checkOccupancyName(options, extra, vectors);
     auto side = std::make_shared<openvdb::io::File>(spilled.path());
     try {
         side->open(/*delayLoad=*/false);

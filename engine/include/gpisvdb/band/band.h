@@ -20,6 +20,7 @@ struct VoxelStencil {
 
 struct Band {
     double voxelSize = 0;                  ///< h, world units; voxel k has its centre at h·k
+    double iso = 0.5;                      ///< u: μ and T describe the surface φ = u (BandOptions::iso)
     openvdb::Int32Grid::Ptr index;         ///< active voxels hold their linear index; background −1
     std::vector<openvdb::Coord> coord;     ///< index space coordinates, by linear index
 

@@ -30,13 +30,26 @@ struct NamedVectorChannel {
 struct VdbWriteOptions {
     bool halfFloat = false;        ///< store float and vec3 grids as 16-bit halves (half the file; ~3 significant digits)
     bool sellingStencils = false;  ///< also write each voxel's Selling decomposition (sellingGrids), ~96 bytes per voxel
+    /// Name of the occupancy fog volume P(φ > u) (occupancyGrid); "density" is what Blender's Principled Volume and
+    /// Houdini's volume display read without set-up. Empty: not written.
+    std::string occupancyName = "density";
+    /// Write NanoVDB instead of OpenVDB (docs/band.md#nanovdb): one uncompressed segment per grid, float grids as
+    /// Fp16 with halfFloat; names, classes and transforms carry, the file metadata has no place there.
+    bool nanoVdb = false;
 };
 
+/// Whether `path` names a NanoVDB file (it ends in ".nvdb"): how the front ends choose VdbWriteOptions::nanoVdb.
+bool isNanoVdbPath(const std::string& path);
+
+/// The band's own grids' names, in file order, the occupancy's aside: mu … stencil_width.
+const std::vector<std::string>& bandGridNames();
+
 /// Grids: mu (fog volume), mean, stddev, T_diag (xx, yy, zz), T_offdiag (xy, xz, yz), normal (outward unit),
-/// stencil_width (max ‖e‖₁, as float), then `extra`, then `vectors`. Throws Error when a channel does not match
-/// the band.
+/// stencil_width (max ‖e‖₁, as float), the occupancy (options.occupancyName, fog volume), then `extra`, then
+/// `vectors`. Every grid's creator is "gpisvdb VERSION". Throws Error when a channel does not match the band, and
+/// ParameterError when the occupancy's name is another grid's.
 openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>& extra = {},
-                              const std::vector<NamedVectorChannel>& vectors = {});
+                              const std::vector<NamedVectorChannel>& vectors = {}, const VdbWriteOptions& options = {});
 
 /// Each voxel's Selling decomposition T ≈ Σ_k λ_k e_k e_kᵀ (k = 0..5), enough to rebuild L from the file alone
 /// (docs/band.md#rebuilding-l-from-the-file): float grids selling_weight_0..5 (λ_k, world units⁻¹; 0 for unused
@@ -44,7 +57,8 @@ openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>&
 /// Every grid is active on exactly the band's voxels, like mu.
 openvdb::GridPtrVec sellingGrids(const Band& band);
 
-/// Writes grids with Blosc compression and the file metadata. Throws OutputError when the file cannot be written.
+/// Writes grids with Blosc compression and the file metadata (NanoVDB with options.nanoVdb), each grid's creator
+/// set to "gpisvdb VERSION". Throws OutputError when the file cannot be written.
 /// Never writes inf or NaN: a float or Vec3f grid with a non-finite active value or background throws Error
 /// (naming the grid and the first voxel), and with options.halfFloat one beyond ±65504 (a half's largest
 /// finite value) throws ParameterError naming VdbWriteOptions::halfFloat. Nothing is written then.
@@ -72,11 +86,13 @@ public:
     const std::string& path() const { return path_; }
     const std::vector<std::string>& names() const { return names_; }  ///< the grids it holds, in file order
     bool halfFloat() const { return halfFloat_; }
+    const std::string& occupancyName() const { return occupancyName_; }
 
 private:
     std::string path_;
     std::vector<std::string> names_;
     bool halfFloat_ = false;
+    std::string occupancyName_;
 };
 
 /// Bytes releaseSpilledChannels would free: the capacity of mean, stddev, T and normal.
