@@ -272,7 +272,7 @@ py::dict evaluateModel(const Model& m, py::handle points, std::optional<double> 
             pmu[i] = d.mu;
             for (int r = 0; r < 3; ++r)
                 for (int c = 0; c < 3; ++c) pT[9 * i + std::size_t(3 * r + c)] = d.T(r, c);
-            pin[i] = insideProbability(v.mean[0], std::sqrt(std::max(v.cov(0, 0), 0.0)), u);
+            pin[i] = insideProbability(v, u);
         }
         return 0;
     });

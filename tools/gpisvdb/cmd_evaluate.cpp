@@ -107,7 +107,7 @@ void addEvaluate(CLI::App& app, Action& action) {
                 csv << ',' << d.mu;
                 for (int r = 0; r < 3; ++r)
                     for (int c = r; c < 3; ++c) csv << ',' << d.T(r, c);
-                csv << ',' << insideProbability(v.mean[0], std::sqrt(std::max(v.cov(0, 0), 0.0)), iso) << '\n';
+                csv << ',' << insideProbability(v, iso) << '\n';
             }
             csv.close();
             if (!csv) throw OutputError(a->output + ": writing failed (disk full?)");

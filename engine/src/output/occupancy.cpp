@@ -1,5 +1,6 @@
 #include "gpisvdb/output/occupancy.h"
 
+#include <algorithm>
 #include <cmath>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/SignedFloodFill.h>
@@ -11,6 +12,10 @@ namespace gpisvdb {
 double insideProbability(double mean, double stddev, double iso) {
     if (!(stddev > 0)) return mean > iso ? 1.0 : 0.0;
     return 0.5 * std::erfc(-(mean - iso) / stddev * M_SQRT1_2);
+}
+
+double insideProbability(const ValueGradient& z, double iso) {
+    return insideProbability(z.mean[0], std::sqrt(std::max(z.cov(0, 0), 0.0)), iso);
 }
 
 openvdb::FloatGrid::Ptr occupancyGrid(const Band& band, const std::string& name) {

@@ -323,16 +323,16 @@ openvdb::GridPtrVec sellingGrids(const Band& band) {
 void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
               const VdbWriteOptions& options) {
     openvdb::initialize();
-    for (const auto& g : grids) checkFiniteGrid(g, options.halfFloat);
-    for (auto& g : grids) {
-        g->setSaveFloatAsHalf(options.halfFloat);
-        g->setCreator(kCreator);
-    }
-    if (options.nanoVdb) {
+    if (options.nanoVdb) {  // the streaming writer checks and labels each grid itself
         std::vector<GridMaker> makers;
         for (const auto& g : grids) makers.push_back([g] { return g; });
         writeGridsStreaming(makers, path, metadata, options);
         return;
+    }
+    for (const auto& g : grids) checkFiniteGrid(g, options.halfFloat);
+    for (auto& g : grids) {
+        g->setSaveFloatAsHalf(options.halfFloat);
+        g->setCreator(kCreator);
     }
     try {
         openvdb::io::File file(path);
