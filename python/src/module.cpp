@@ -33,6 +33,7 @@
 #include "gpisvdb/tasks/matern.h"
 #include "gpisvdb/tasks/smoothed_distance.h"
 #include "gpisvdb/tasks/spectrum.h"
+#include "gpisvdb/tasks/plausible_surfaces.h"
 #include "work.h"
 
 namespace py = pybind11;
@@ -661,6 +662,17 @@ py::dict smoothedDistance(const PyBand& b, double alpha, std::optional<double> g
                     "mean_terms"_a = r.meanTerms);
 }
 
+/// (V (n, 3) float64 world units, F (m, 3) int32) of a mesh.
+py::tuple vertexFaceArrays(const SurfaceMesh& mesh) {
+    py::array_t<double> V({py::ssize_t(mesh.vertices.size()), py::ssize_t(3)});
+    for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
+        for (int d = 0; d < 3; ++d) V.mutable_data()[3 * i + std::size_t(d)] = mesh.vertices[i][d];
+    py::array_t<std::int32_t> F({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+        for (int d = 0; d < 3; ++d) F.mutable_data()[3 * t + std::size_t(d)] = mesh.triangles[t][std::size_t(d)];
+    return py::make_tuple(V, F);
+}
+
 py::tuple meanSurfaceTask(const PyBand& b, std::optional<double> iso, py::object channels, int threads) {
     const double u = iso ? *iso : b.built.options.iso;
     if (!std::isfinite(u)) throw ParameterError("iso must be finite");
@@ -702,19 +714,39 @@ py::tuple meanSurfaceTask(const PyBand& b, std::optional<double> iso, py::object
         }
         return m;
     });
-    py::array_t<double> V({py::ssize_t(mesh.vertices.size()), py::ssize_t(3)});
-    for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
-        for (int d = 0; d < 3; ++d) V.mutable_data()[3 * i + std::size_t(d)] = mesh.vertices[i][d];
-    py::array_t<std::int32_t> F({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
-    for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-        for (int d = 0; d < 3; ++d) F.mutable_data()[3 * t + std::size_t(d)] = mesh.triangles[t][std::size_t(d)];
+    const py::tuple VF = vertexFaceArrays(mesh);
     py::dict values;
     for (std::size_t k = 0; k < mesh.arrayNames.size(); ++k) {
         std::string name = mesh.arrayNames[k];
         if (name.rfind("extra_", 0) == 0) name = name.substr(6);
         values[py::str(name)] = copyOf<float>(mesh.arrays[k], mesh.components[k]);
     }
-    return py::make_tuple(V, F, values);
+    return py::make_tuple(VF[0], VF[1], values);
+}
+
+py::list surfacesTask(const PyBand& b, int count, std::uint64_t seed, int first, double beta, int threads,
+                     py::object progress) {
+    if (b.model->trainingSize > 0)
+        throw ParameterError("plausible surfaces are drawn from the winding-number model only (model='winding')");
+    SurfaceDrawOptions o;
+    o.count = count;
+    o.seed = seed;
+    o.firstDraw = first;
+    o.openingRatio = beta;
+    Work work(threads, std::move(progress));
+    const std::vector<SurfaceMesh> meshes = work([&](const Progress& p) {
+        const SurfaceDraws draws(b.model->input.samples, b.model->smoothing, o);
+        const std::vector<std::vector<float>> fields = draws.onBand(b.band(), p);
+        std::vector<SurfaceMesh> out;
+        for (const auto& field : fields) {
+            p.checkInterrupt();
+            out.push_back(meanSurface(*drawGrid(b.band(), field), b.band().iso));
+        }
+        return out;
+    });
+    py::list out;
+    for (const SurfaceMesh& mesh : meshes) out.append(vertexFaceArrays(mesh));
+    return out;
 }
 
 }  // namespace
@@ -976,6 +1008,12 @@ Returns {'values': (nx, ny, nz) float32 with values[i, j, k] at origin + H (i, j
              R"doc(The mean surface gamma = u (u: the band's iso by default) as a triangle mesh, as `gpisvdb mesh`.
 channels: None (samples mu and stddev) or a dict name -> (N,) or (N, 3) per-voxel array, sampled trilinearly at
 the vertices. Returns (V (n, 3) float64 world units, F (m, 3) int32, {name: values at the vertices}).)doc")
+        .def("surfaces", &surfacesTask, "n"_a = SurfaceDrawOptions{}.count, py::kw_only(), "seed"_a = SurfaceDrawOptions{}.seed,
+             "first"_a = 0, "beta"_a = SurfaceDrawOptions{}.openingRatio, "threads"_a = 0, "progress"_a = py::none(),
+             R"doc(Plausible surfaces, as `gpisvdb surfaces` (docs/uncertainty.md#plausible-surfaces): the level sets u of n draws
+of the linearised GPIS (winding-number model only), gamma + J eps on the band's voxels. Draw k (k = first ...
+first + n - 1) depends on (seed, k) alone. beta: the draws' Barnes-Hut opening ratio (> 1).
+Returns a list of n (V (m, 3) float64 world units, F (t, 3) int32), draw first first.)doc")
         .def("__repr__", [](const PyBand& b) {
             return "<gpisvdb.Band " + std::to_string(b.band().size()) + " voxels of size " + numberText(b.band().voxelSize) +
                    ", mass " + numberText(b.band().mass()) + ">";

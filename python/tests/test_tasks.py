@@ -146,6 +146,25 @@ def test_smoothed_distance_refuses_a_grid_beyond_max_memory_naming_the_grid_voxe
     assert d["voxel_size"] == pytest.approx(fits)
 
 
+def test_surfaces_equal_the_command_line_draw_for_draw(band, sphere_obj, tmp_path):
+    draws = band.surfaces(3, seed=9)
+    assert len(draws) == 3
+    for V, F in draws:
+        assert len(F) > 100 and F.max() < len(V)
+        assert 0.7 < np.linalg.norm(V, axis=1).mean() < 1.2  # near the unit sphere
+    assert not np.array_equal(draws[0][0], draws[1][0])
+    V2, F2 = band.surfaces(1, seed=9, first=2)[0]  # draw 2 alone: the same mesh
+    np.testing.assert_array_equal(V2, draws[2][0])
+    np.testing.assert_array_equal(F2, draws[2][1])
+    run_cli("surfaces", sphere_obj, "-n", 3, "--seed", 9, "-o", tmp_path / "draws", *FLAGS)
+    with open(tmp_path / "draws" / "surface_0002.ply", "rb") as f:
+        header = f.read(300)
+    assert b"draw 2 of seed 9" in header
+    assert re.search(rb"element vertex (\d+)", header).group(1) == str(len(V2)).encode()  # the same band, the same mesh
+    with pytest.raises(gpisvdb.ParameterError):
+        band.surfaces(0)
+
+
 def test_mean_surface_lies_on_the_sphere_and_carries_channels(band):
     V, F, values = band.mean_surface()
     assert len(F) > 100 and F.max() < len(V)

@@ -19,5 +19,6 @@ void addHodge(CLI::App& app, Action& action);
 void addDistance(CLI::App& app, Action& action);
 void addRender(CLI::App& app, Action& action);
 void addSample(CLI::App& app, Action& action);
+void addSurfaces(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

@@ -174,7 +174,7 @@ MeshFormat meshFormatOf(const std::string& path) {
 void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat format) {
     if (format == MeshFormat::Ply) {
         std::ofstream out(path, std::ios::binary);
-        out << "ply\nformat binary_little_endian 1.0\ncomment gpisvdb mean surface\nelement vertex " << mesh.vertices.size()
+        out << "ply\nformat binary_little_endian 1.0\ncomment " << mesh.comment << "\nelement vertex " << mesh.vertices.size()
             << "\nproperty float x\nproperty float y\nproperty float z\n";
         for (std::size_t k = 0; k < mesh.arrays.size(); ++k) {
             if (mesh.components[k] == 1) out << "property float " << mesh.arrayNames[k] << "\n";
