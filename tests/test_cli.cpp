@@ -988,7 +988,7 @@ TEST_CASE("cli: geodesic writes 'geodesic', 0 at the source and as reported at t
 
 TEST_CASE("cli: every subcommand has --help with an example, and refuses unknown flags and missing arguments", "[cli]") {
     const std::vector<std::string> commands = {"info", "evaluate", "demo", "band", "green", "spectrum", "regress",
-                                               "geodesic", "hodge", "distance", "mesh", "render", "sample", "surfaces"};
+                                               "geodesic", "hodge", "distance", "mesh", "render", "sample", "surfaces", "query"};
     const Run top = run("--help");
     CHECK(top.code == 0);
     CHECK_THAT(top.out, Catch::Contains("Exit codes"));

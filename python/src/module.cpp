@@ -33,7 +33,9 @@
 #include "gpisvdb/tasks/matern.h"
 #include "gpisvdb/tasks/smoothed_distance.h"
 #include "gpisvdb/tasks/spectrum.h"
+#include "gpisvdb/tasks/collision.h"
 #include "gpisvdb/tasks/plausible_surfaces.h"
+#include "gpisvdb/tasks/ray_query.h"
 #include "work.h"
 
 namespace py = pybind11;
@@ -279,6 +281,46 @@ py::dict evaluateModel(const Model& m, py::handle points, std::optional<double> 
     });
     return py::dict("mean"_a = mean, "gradient"_a = grad, "covariance"_a = cov, "mu"_a = mu, "T"_a = T,
                     "p_inside"_a = inside);
+}
+
+py::dict queryRaysTask(const Model& m, py::handle origins, py::handle directions, py::handle lengths, std::optional<double> step,
+                       std::optional<double> iso, int threads, py::object progress) {
+    const std::vector<Vec3d> o = points3(origins, "origins", true), d = points3(directions, "directions", true);
+    if (d.size() != o.size()) throw InputError("directions must have as many rows as origins");
+    const std::vector<double> L = values1(lengths, "lengths", o.size(), /*positive*/ true);
+    RayQueryOptions options;
+    options.iso = iso ? *iso : m.loaded->model->naturalIso();
+    options.step = step ? *step : m.loaded->smoothing / 4;
+    std::vector<Ray> rays(o.size());
+    for (std::size_t i = 0; i < o.size(); ++i) rays[i] = {o[i], d[i], L[i]};
+    Work work(threads, std::move(progress));
+    const std::vector<RayHit> hits = work([&](const Progress& p) { return queryRays(*m.loaded->model, rays, options, p); });
+    const py::ssize_t n = py::ssize_t(hits.size());
+    py::array_t<double> inside(n), hit(n), expected(n), sd(n);
+    for (py::ssize_t i = 0; i < n; ++i) {
+        const RayHit& h = hits[std::size_t(i)];
+        inside.mutable_data()[i] = h.insideAtOrigin, hit.mutable_data()[i] = h.hit;
+        expected.mutable_data()[i] = h.expected, sd.mutable_data()[i] = h.stddev;
+    }
+    return py::dict("p_inside_origin"_a = inside, "p_hit"_a = hit, "hit_distance"_a = expected, "hit_distance_std"_a = sd,
+                    "step"_a = options.step);
+}
+
+py::dict collisionTask(const Model& m, py::handle V, py::handle F, int draws, std::uint64_t seed, std::optional<double> step,
+                       std::optional<double> iso, int threads, py::object progress) {
+    if (m.loaded->trainingSize > 0) throw ParameterError("collision draws the winding-number model only (model='winding')");
+    const InputData mesh = soupInput(V, F);
+    CollisionOptions o;
+    o.draws = draws, o.seed = seed;
+    o.step = step ? *step : m.loaded->smoothing / 2;
+    o.iso = iso ? *iso : m.loaded->model->naturalIso();
+    Work work(threads, std::move(progress));
+    const CollisionResult c = work([&](const Progress& p) {
+        return collisionProbability(*m.loaded->model, m.loaded->input.samples, m.loaded->smoothing, mesh.soup->vertices,
+                                    mesh.soup->triangles, o, p);
+    });
+    return py::dict("p_collision"_a = c.probability, "standard_error"_a = c.standardError, "points"_a = c.points,
+                    "largest_point_p_inside"_a = c.largestInside, "step"_a = o.step);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -888,6 +930,18 @@ The same numbers as `gpisvdb evaluate`'s CSV.)doc")
         .def_property_readonly("kind", [](const Model& m) { return m.options.kind == ModelKind::Regression ? "regression" : "winding"; })
         .def_property_readonly("iso", [](const Model& m) { return m.loaded->model->naturalIso(); },
                                "the model's own surface level u (0.5 winding, 0 regression)")
+        .def("query_rays", &queryRaysTask, "origins"_a, "directions"_a, "lengths"_a, py::kw_only(), "step"_a = py::none(),
+             "iso"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
+             R"doc(Where rays first enter the inside phi > u, as `gpisvdb query --rays` (docs/uncertainty.md#ray-queries).
+origins, directions: n x 3 (world units; directions of any length > 0), lengths: (n,) > 0. step: spacing along
+the rays (None: s / 4). Returns {'p_inside_origin', 'p_hit', 'hit_distance', 'hit_distance_std': (n,), 'step'};
+the distance's mean and std are given a hit (NaN without one).)doc")
+        .def("collision", &collisionTask, "V"_a, "F"_a, py::kw_only(), "draws"_a = CollisionOptions{}.draws, "seed"_a = 1,
+             "step"_a = py::none(), "iso"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
+             R"doc(The probability that a mesh (V: n x 3 world units, F: m x 3 indices) meets the inside phi > u, by Monte Carlo
+over `draws` draws of the GPIS, as `gpisvdb query --mesh` (docs/uncertainty.md#mesh-collision); the mesh is
+sampled at spacing `step` (None: s / 2). Winding-number model only. Returns {'p_collision', 'standard_error',
+'points', 'largest_point_p_inside', 'step'}.)doc")
         .def("__repr__", [](const Model& m) {
             return "<gpisvdb.Model " + std::string(m.options.kind == ModelKind::Regression ? "regression" : "winding") + " of " +
                    std::to_string(m.loaded->input.samples.size()) + (m.loaded->input.isSoup ? " triangles" : " points") +

@@ -165,6 +165,27 @@ def test_surfaces_equal_the_command_line_draw_for_draw(band, sphere_obj, tmp_pat
         band.surfaces(0)
 
 
+def test_query_rays_and_collision_equal_the_command_line(model, sphere_obj, tmp_path):
+    origins = np.array([[0, 0, 2.5], [0, 0, 0], [-2.5, 0, 3.0]])
+    directions = np.array([[0, 0, -1], [0, 0, 1], [1, 0, 0]])
+    lengths = np.array([2.5, 2.0, 5.0])
+    r = model.query_rays(origins, directions, lengths)
+    assert r["p_hit"][0] > 0.999 and 0.8 < r["hit_distance"][0] < 1.6  # down onto the sphere's top
+    assert r["p_inside_origin"][1] > 0.999 and r["hit_distance"][1] < 1e-6  # inside at the origin: a hit at 0
+    assert r["p_hit"][2] < 1e-9 and np.isnan(r["hit_distance"][2])  # passing far above
+    rays = tmp_path / "rays.csv"
+    np.savetxt(rays, np.c_[origins, directions, lengths], delimiter=",")
+    run_cli("query", sphere_obj, "--rays", rays, "-o", tmp_path / "hits.csv", *[f for f in FLAGS if f != "--voxel-size" and f != str(VOXEL)])
+    cli = np.genfromtxt(tmp_path / "hits.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(cli["p_hit"], r["p_hit"], atol=1e-12)
+    np.testing.assert_allclose(cli["hit_distance"][:2], r["hit_distance"][:2], atol=1e-12)
+    V = np.array([[-0.1, 0, 0], [0.1, 0, 0], [0, 0.1, 0]])
+    c = model.collision(V, np.array([[0, 1, 2]]), draws=50)
+    assert c["p_collision"] == 1.0 and c["standard_error"] == 0 and c["points"] >= 3
+    with pytest.raises(gpisvdb.InputError):
+        model.query_rays(origins, directions[:2], lengths)
+
+
 def test_mean_surface_lies_on_the_sphere_and_carries_channels(band):
     V, F, values = band.mean_surface()
     assert len(F) > 100 and F.max() < len(V)

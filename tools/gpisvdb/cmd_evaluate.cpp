@@ -11,34 +11,16 @@
 #include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/output/occupancy.h"
 #include "memory_stage.h"
+#include "number_table.h"
 
 namespace gpisvdb::cli {
 
 namespace {
 
+/// One 'x y z' per line (commas or spaces; '#' comments; further words, such as an .xyz cloud's normals, ignored).
 std::vector<Vec3d> readQueryPoints(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) throw InputError(path + ": cannot open the query points");
     std::vector<Vec3d> xs;
-    std::string line;
-    for (std::size_t ln = 1; std::getline(in, line); ++ln) {
-        if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
-        for (char& c : line)
-            if (c == ',') c = ' ';
-        std::istringstream ls(line);
-        std::string tok[3];
-        if (!(ls >> tok[0])) continue;
-        if (!(ls >> tok[1] >> tok[2])) throw InputError(path + ":" + std::to_string(ln) + ": expected 'x y z'");
-        Vec3d p;
-        for (int d = 0; d < 3; ++d) {
-            char* end = nullptr;
-            p[d] = std::strtod(tok[d].c_str(), &end);
-            if (*end != '\0' || end == tok[d].c_str() || !std::isfinite(p[d]))
-                throw InputError(path + ":" + std::to_string(ln) + ": '" + tok[d] + "' is not a finite number");
-        }
-        xs.push_back(p);
-    }
-    if (xs.empty()) throw InputError(path + ": no query points");
+    for (const auto& row : readNumberRows(path, 3, "query points", "x y z", /*extraIgnored*/ true)) xs.emplace_back(row[0], row[1], row[2]);
     return xs;
 }
 

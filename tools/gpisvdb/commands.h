@@ -20,5 +20,6 @@ void addDistance(CLI::App& app, Action& action);
 void addRender(CLI::App& app, Action& action);
 void addSample(CLI::App& app, Action& action);
 void addSurfaces(CLI::App& app, Action& action);
+void addQuery(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

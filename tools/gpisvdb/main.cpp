@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
     cli::addRender(app, action);
     cli::addSample(app, action);
     cli::addSurfaces(app, action);
+    cli::addQuery(app, action);
     for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
     try {
         app.parse(argc, argv);

@@ -1,0 +1,46 @@
+#pragma once
+// The probability that a mesh (a robot, a character, a tool) meets the inside of the uncertain shape
+// (docs/uncertainty.md#mesh-collision), by Monte Carlo over draws of the GPIS (tasks/plausible_surfaces.h).
+//
+// The mesh is sampled at its vertices, along its edges and across its triangles at spacing `step`; draw k collides
+// when φ_k > u at one of those points. The estimate is the fraction of the n draws that collide, with its standard
+// error √(p (1 − p) / n); what happens between the sample points (a sliver of the shape thinner than `step`) is
+// not seen.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "gpisvdb/core/progress.h"
+#include "gpisvdb/core/types.h"
+#include "gpisvdb/input/samples.h"
+#include "gpisvdb/model/gpis_model.h"
+
+namespace gpisvdb {
+
+struct CollisionOptions {
+    int draws = 1000;           ///< Monte Carlo draws n (1 … 10 000)
+    std::uint64_t seed = 1;     ///< the draws' seed (as SurfaceDrawOptions::seed)
+    double step = 0;            ///< spacing of the points sampled on the mesh, world units (> 0)
+    double iso = 0.5;           ///< u: inside where φ > u
+    double openingRatio = 6.0;  ///< the draws' Barnes–Hut β (SurfaceDrawOptions::openingRatio)
+};
+
+struct CollisionResult {
+    double probability = 0;     ///< the fraction of draws in which the mesh meets the inside
+    double standardError = 0;   ///< √(p (1 − p) / n)
+    std::size_t points = 0;     ///< points sampled on the mesh
+    double largestInside = 0;   ///< the largest P(φ > u) over those points, one point at a time (a lower bound on p)
+};
+
+/// Points on a triangle mesh: its vertices, and the points of a lattice of spacing ≤ step on each triangle (its
+/// edges included). Throws ParameterError on a step ≤ 0 or more than 1e8 points.
+std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                                    double step);
+
+/// P(the mesh meets {φ > u}): γ from `model` (the winding model of `samples`), J ε of each draw from the samples'
+/// tree (smoothing s, world units). Throws ParameterError on bad options, InputError on an empty mesh.
+CollisionResult collisionProbability(const GpisModel& model, const Samples& samples, double s,
+                                     const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                                     const CollisionOptions& options, const Progress& progress = {});
+
+}  // namespace gpisvdb
