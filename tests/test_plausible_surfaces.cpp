@@ -10,6 +10,7 @@
 
 #include "band_fixtures.h"
 #include "cli_run.h"
+#include "png_stats.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/point_cloud.h"
 #include "gpisvdb/input/procedural.h"
@@ -186,6 +187,14 @@ TEST_CASE("plausible surfaces: the surfaces command writes one mesh per draw, na
     // The draws' areas scatter about Σ μ h³ (the test above checks the mean on a finer band)
     const double expected = surfaces["expected_area"], mean = surfaces["mean_area"];
     CHECK(std::abs(mean / expected - 1) < 0.25);
+    // --picture: the mean surface and three draws side by side
+    const std::string png = temp("draws.png");
+    fs::remove(png);
+    REQUIRE(run(common + " -n 3 --seed 4 -o " + temp("draws_pictured") + " --picture " + png).code == 0);
+    const test::PngStats picture = test::pngStats(png);
+    CHECK(picture.readable);
+    CHECK(picture.width == 4 * 480);
+    CHECK(picture.nonWhite > 0.05);
     // Draw 1 alone, by --first: the same mesh, byte for byte
     const std::string one = temp("draws_one");
     fs::remove_all(one);

@@ -5,12 +5,15 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 
 #include "band_job.h"
 #include "commands.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/output/mean_surface.h"
+#include "gpisvdb/output/render.h"
 #include "gpisvdb/tasks/plausible_surfaces.h"
+#include "render_memory.h"
 
 namespace gpisvdb::cli {
 
@@ -23,12 +26,47 @@ std::string surfaceFileName(int draw, MeshFormat format) {
     return name;
 }
 
+/// The mean surface and up to three draws side by side, each coloured by the std of φ (sampled from the band), as
+/// a PNG at `path`; its memory estimated and refused before VTK allocates (the render's parts, render_memory.h).
+/// Returns the report's memory stage.
+nlohmann::json drawPicture(const BandJob& job, const openvdb::FloatGrid::Ptr& meanGrid, std::vector<SurfaceMesh>& draws,
+                           int firstDraw, const std::string& path) {
+    const Band& band = job.result.band;
+    SurfaceMesh mean = meanSurface(*meanGrid, band.iso);
+    auto stddev = drawGrid(band, band.stddev);
+    stddev->setName("stddev");
+    double vertices = double(mean.vertices.size());
+    for (const SurfaceMesh& m : draws) vertices += double(m.vertices.size());
+    constexpr int kWidth = 480, kHeight = 400;
+    const double pixels = double(kWidth) * kHeight * double(draws.size() + 1);
+    const MemoryEstimate memory = estimateStage(job, "picture", renderBytes(vertices, pixels));
+    const bool stageOnly = resetPeakResident();
+    std::vector<RenderPanel> panels;
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (float v : band.stddev) lo = std::min(lo, v), hi = std::max(hi, v);
+    const auto panel = [&](SurfaceMesh& m, const std::string& title) {
+        sampleAtVertices(m, *stddev);
+        RenderPanel p;
+        p.title = title;
+        p.surface = &m, p.array = "stddev", p.colormap = Colormap::Viridis;
+        p.range = {lo, hi};  // one scale for every panel
+        panels.push_back(p);
+    };
+    panel(mean, "mean surface (colour: std of phi)");
+    for (std::size_t k = 0; k < draws.size(); ++k) panel(draws[k], "draw " + std::to_string(firstDraw + int(k)));
+    RenderOptions o;
+    o.panelWidth = kWidth, o.panelHeight = kHeight;
+    o.caption = "plausible surfaces: level sets u of draws of the GPIS";
+    renderPng(panels, o, path, makeProgress(true));
+    return memoryStageReport(memory, peakResidentBytes(), stageOnly);
+}
+
 }  // namespace
 
 void addSurfaces(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("surfaces", "plausible surfaces: meshes of n draws of the GPIS, in a directory");
     struct Args {
-        std::string input, dir, format = "ply";
+        std::string input, dir, format = "ply", picture;
         SurfaceDrawOptions draws;
         BandFlags flags;
     };
@@ -46,6 +84,8 @@ void addSurfaces(CLI::App& app, Action& action) {
     cmd->add_option("--draw-beta", a->draws.openingRatio,
                     "the draws' Barnes-Hut opening ratio (> 1; larger is more accurate and slower)")
         ->capture_default_str();
+    cmd->add_option("--picture", a->picture,
+                    "also a PNG: the mean surface and the first three draws side by side, coloured by the std of phi");
     addBandFlags(*cmd, a->flags);
     cmd->footer("Each draw is one sample of the noise of the input (positions and normals), mapped through the\n"
                 "linearised model: its field gamma + J eps is evaluated on the band and meshed at u, to\n"
@@ -66,6 +106,8 @@ void addSurfaces(CLI::App& app, Action& action) {
             const MeshFormat format = a->format == "ply" ? MeshFormat::Ply : MeshFormat::Vtp;
             const InputData data = readInput(a->input);
             AtomicDirectory out(a->dir);
+            std::unique_ptr<AtomicOutput> pictureOut;
+            if (!a->picture.empty()) pictureOut = std::make_unique<AtomicOutput>(a->picture);
             std::unique_ptr<AtomicOutput> reportOut;
             if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
             const Progress progress = makeProgress(a->flags.model.quiet);
@@ -94,6 +136,7 @@ void addSurfaces(CLI::App& app, Action& action) {
             const double secondsDraws = std::chrono::duration<double>(Clock::now() - tDraws).count();
             const auto tMeshes = Clock::now();
             nlohmann::json meshes = nlohmann::json::array();
+            std::vector<SurfaceMesh> shown;  // the first three draws, for --picture
             double areaSum = 0, areaSum2 = 0;
             const std::filesystem::path tmp(out.tempPath());
             for (int k = 0; k < n; ++k) {
@@ -110,23 +153,29 @@ void addSurfaces(CLI::App& app, Action& action) {
                 areaSum2 += area * area;
                 meshes.push_back({{"draw", draw}, {"file", name}, {"vertices", mesh.vertices.size()},
                                   {"triangles", mesh.triangles.size()}, {"area", area}});
+                if (!a->picture.empty() && shown.size() < 3) shown.push_back(std::move(mesh));
             }
             progress.update("meshes", 1.0);
             const double secondsMeshes = std::chrono::duration<double>(Clock::now() - tMeshes).count();
             const double peak = peakResidentBytes();
+            nlohmann::json pictureStage;
+            if (pictureOut) pictureStage = drawPicture(job, meanGrid, shown, a->draws.firstDraw, pictureOut->tempPath());
             const double meanArea = areaSum / n;
             const double areaStd = n > 1 ? std::sqrt(std::max(0.0, (areaSum2 - n * meanArea * meanArea) / (n - 1))) : 0.0;
             out.commit();
+            if (pictureOut) pictureOut->commit();
             const double total = std::chrono::duration<double>(Clock::now() - start).count();
             if (reportOut) {
                 nlohmann::json report = bandReport(job, a->flags);
                 report["memory"]["stages"] = {{"surfaces", memoryStageReport(memory, peak, stageOnly)}};
+                if (!pictureStage.is_null()) report["memory"]["stages"]["picture"] = pictureStage;
                 report["surfaces"] = {{"count", n}, {"seed", a->draws.seed}, {"first", a->draws.firstDraw},
                                       {"draw_beta", a->draws.openingRatio}, {"expected_area", band.mass()},
                                       {"mean_area", meanArea}, {"area_std", areaStd}, {"meshes", meshes}};
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"draws", secondsDraws},
                                        {"meshes", secondsMeshes}, {"total", total}};
                 report["outputs"] = {a->dir};
+                if (!a->picture.empty()) report["outputs"].push_back(a->picture);
                 commitReport(*reportOut, report);
             }
             if (!a->flags.model.quiet)
