@@ -3,6 +3,11 @@
 #include <cmath>
 #include <random>
 #include <tbb/global_control.h>
+#include <vtkFieldData.h>
+#include <vtkPolyData.h>
+#include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
+#include <vtkXMLPolyDataReader.h>
 
 #include <filesystem>
 #include <fstream>
@@ -195,6 +200,17 @@ TEST_CASE("plausible surfaces: the surfaces command writes one mesh per draw, na
     CHECK(picture.readable);
     CHECK(picture.width == 4 * 480);
     CHECK(picture.nonWhite > 0.05);
+    // --format vtp: the draw in the file's field data
+    const std::string vtp = temp("draws_vtp");
+    fs::remove_all(vtp);
+    REQUIRE(run(common + " -n 1 --first 2 --seed 4 --format vtp -o " + vtp).code == 0);
+    auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
+    reader->SetFileName((vtp + "/surface_0002.vtp").c_str());
+    reader->Update();
+    auto* comment = vtkStringArray::SafeDownCast(reader->GetOutput()->GetFieldData()->GetAbstractArray("comment"));
+    REQUIRE(comment != nullptr);
+    CHECK(comment->GetValue(0) == "gpisvdb plausible surface: draw 2 of seed 4");
+    CHECK(reader->GetOutput()->GetNumberOfPolys() > 100);
     // Draw 1 alone, by --first: the same mesh, byte for byte
     const std::string one = temp("draws_one");
     fs::remove_all(one);

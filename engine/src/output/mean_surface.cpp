@@ -4,11 +4,13 @@
 #include <openvdb/tools/SignedFloodFill.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <vtkCellArray.h>
+#include <vtkFieldData.h>
 #include <vtkFloatArray.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
 #include <vtkXMLPolyDataWriter.h>
 
 #include <algorithm>
@@ -174,7 +176,9 @@ MeshFormat meshFormatOf(const std::string& path) {
 void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat format) {
     if (format == MeshFormat::Ply) {
         std::ofstream out(path, std::ios::binary);
-        out << "ply\nformat binary_little_endian 1.0\ncomment " << mesh.comment << "\nelement vertex " << mesh.vertices.size()
+        std::string comment = mesh.comment;
+        std::replace(comment.begin(), comment.end(), '\n', ' ');  // one header line
+        out << "ply\nformat binary_little_endian 1.0\ncomment " << comment << "\nelement vertex " << mesh.vertices.size()
             << "\nproperty float x\nproperty float y\nproperty float z\n";
         for (std::size_t k = 0; k < mesh.arrays.size(); ++k) {
             if (mesh.components[k] == 1) out << "property float " << mesh.arrayNames[k] << "\n";
@@ -198,6 +202,10 @@ void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat form
     }
     // === VTP
     const auto pd = surfacePolyData(mesh);
+    auto comment = vtkSmartPointer<vtkStringArray>::New();  // field data: what the PLY header's comment says
+    comment->SetName("comment");
+    comment->InsertNextValue(mesh.comment);
+    pd->GetFieldData()->AddArray(comment);
     auto w = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
     w->SetFileName(path.c_str());
     w->SetInputData(pd);

@@ -14,7 +14,7 @@ struct SurfaceMesh {
     std::vector<std::string> arrayNames;           ///< per-vertex arrays
     std::vector<std::vector<float>> arrays;        ///< arrays[k] has components(k) × vertices values
     std::vector<int> components;                   ///< 1 (float grid) or 3 (vec3 grid)
-    std::string comment = "gpisvdb mean surface";  ///< the PLY header's comment line (one line)
+    std::string comment = "gpisvdb mean surface";  ///< the PLY header's comment line, a VTP's field data `comment`
 };
 
 /// Iso-surface of `mean` at u by OpenVDB's volumeToMesh. The band holds γ only near the surface: the values
