@@ -294,6 +294,7 @@ std::vector<std::vector<float>> SurfaceDraws::onBand(const Band& band, const Pro
         tbb::parallel_for(tbb::blocked_range<std::size_t>(start, stop, 64), [&](const tbb::blocked_range<std::size_t>& r) {
             std::vector<double> out(n);
             for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                progress.checkInterruptAt(i);
                 const openvdb::Coord& c = band.coord[i];
                 std::fill(out.begin(), out.end(), 0.0);
                 impl_->addPerturbation(Vec3d(h * c.x(), h * c.y(), h * c.z()), out.data());
