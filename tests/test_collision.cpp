@@ -9,6 +9,7 @@
 #include "gpisvdb/model/direct_gpis.h"
 #include "gpisvdb/output/occupancy.h"
 #include "gpisvdb/tasks/collision.h"
+#include "gpisvdb/tasks/plausible_surfaces.h"
 #include "helpers.h"
 
 using namespace gpisvdb;
@@ -66,9 +67,21 @@ TEST_CASE("collision: a triangle deep inside always collides, one far outside ne
                       << ", " << wide.points << " points");
     CHECK(wide.probability > wide.largestInside + 3 * wide.standardError);
     CHECK(wide.probability < 1.0);
-    // The same draws whatever the chunking: the same seed gives the same estimate
-    CHECK(collisionProbability(sphere.model, sphere.ss.samples, sphere.s, triangleAt(Vec3d(0, 0, 1.05), 0.6), one, options(step))
-              .probability == wide.probability);
+    // The chunks of draws it takes are the draws of one SurfaceDraws: the same estimate from all of them at once
+    SurfaceDrawOptions all;
+    all.count = 2000;
+    all.seed = 5;
+    const SurfaceDraws draws(sphere.ss.samples, sphere.s, all);
+    const std::vector<Vec3d> points = meshSamplePoints(triangleAt(Vec3d(0, 0, 1.05), 0.6), one, step);
+    std::vector<char> hit(2000, 0);
+    for (const Vec3d& x : points) {
+        const double gamma = sphere.model.evaluate(x).mean[0];
+        const std::vector<double> e = draws.perturbation(x);
+        for (std::size_t k = 0; k < hit.size(); ++k) hit[k] |= char(gamma + e[k] > 0.5);
+    }
+    double collided = 0;
+    for (char h : hit) collided += h;
+    CHECK(collided / 2000 == wide.probability);
 }
 
 TEST_CASE("collision: the sample points cover every triangle within the step", "[collision]") {

@@ -775,6 +775,12 @@ py::list surfacesTask(const PyBand& b, int count, std::uint64_t seed, int first,
     o.seed = seed;
     o.firstDraw = first;
     o.openingRatio = beta;
+    // The draws' noise, tree and fields, refused before they allocate, as the other tasks on a band
+    const double need = SurfaceDraws::bytes(b.model->input.samples.size(), o) + 4.0 * double(std::max(count, 0)) * double(b.band().size());
+    if (need > b.taskBytes())
+        throw MemoryLimitError("plausible surfaces: " + std::to_string(count) + " draws on " + std::to_string(b.band().size()) +
+                               " voxels need about " + numberText(need / 1e6) + " MB beside the band, more than the " +
+                               numberText(b.taskBytes() / 1e6) + " MB left by max_memory: draw fewer at once (n, first)");
     Work work(threads, std::move(progress));
     const std::vector<SurfaceMesh> meshes = work([&](const Progress& p) {
         const SurfaceDraws draws(b.model->input.samples, b.model->smoothing, o);

@@ -1,5 +1,6 @@
 // gpisvdb query INPUT (--rays R.csv | --points P.xyz | --mesh M.obj) -o OUT.csv: ray hits, points' probability of
 // being inside, a mesh's probability of meeting the inside (docs/uncertainty.md#queries).
+#include <algorithm>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -97,7 +98,11 @@ void addQuery(CLI::App& app, Action& action) {
             // The stage's memory: the model's values at the points evaluated at once (rays: a batch of at most 2^18
             // points; points: all), and for a mesh its sample points and the draws' noise and tree (≤ 256 MB)
             std::vector<std::pair<std::string, double>> parts;
-            if (kind == "rays") parts = {{"values", kEvaluatedPointBytes * double(std::size_t(1) << 18)}};
+            if (kind == "rays") {  // batches of 2^18 points or one whole ray, whichever is larger
+                std::size_t largest = 0;
+                for (const Ray& r : rayList) largest = std::max(largest, rayPointCount(r, !std::isnan(a->step) ? a->step : m.smoothing / 4));
+                parts = {{"values", (kEvaluatedPointBytes + 24.0) * double((std::size_t(1) << 18) + largest)}};
+            }
             if (kind == "points") parts = {{"values", kEvaluatedPointBytes * double(pointList.size())}};
             std::vector<Vec3d> meshPoints;
             const double step = !std::isnan(a->step) ? a->step : m.smoothing / (kind == "mesh" ? 2.0 : 4.0);

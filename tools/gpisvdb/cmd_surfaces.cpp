@@ -100,7 +100,8 @@ void addSurfaces(CLI::App& app, Action& action) {
                 throw ParameterError("plausible surfaces are drawn from the winding-number model only (--model winding): "
                                      "the regression model's draws would need its posterior's factor");
             if (a->draws.count < 1 || a->draws.count > 10000) throw ParameterError("-n must be between 1 and 10000");
-            if (a->draws.firstDraw < 0) throw ParameterError("--first must be >= 0");
+            if (a->draws.firstDraw < 0 || a->draws.firstDraw > std::numeric_limits<int>::max() - a->draws.count)
+                throw ParameterError("--first must be >= 0, and --first + n must fit an int");
             if (!(a->draws.openingRatio > 1) || !std::isfinite(a->draws.openingRatio))
                 throw ParameterError("--draw-beta must be finite and > 1");
             const MeshFormat format = a->format == "ply" ? MeshFormat::Ply : MeshFormat::Vtp;

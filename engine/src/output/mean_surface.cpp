@@ -197,6 +197,7 @@ void writeMesh(const SurfaceMesh& mesh, const std::string& path, MeshFormat form
             out.write(reinterpret_cast<const char*>(&three), 1);
             out.write(reinterpret_cast<const char*>(t.data()), 3 * sizeof(int));
         }
+        out.close();  // the last buffer's flush can fail too (a full disk)
         if (!out) throw OutputError(path + ": writing the mesh failed");
         return;
     }

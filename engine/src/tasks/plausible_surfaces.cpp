@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -198,8 +199,9 @@ SurfaceDraws::SurfaceDraws(const Samples& samples, double s, const SurfaceDrawOp
         throw ParameterError("the number of draws must be between 1 and " + std::to_string(kMaxDraws) + ", got " +
                                  std::to_string(options.count),
                              {"SurfaceDrawOptions::count"});
-    if (options.firstDraw < 0)
-        throw ParameterError("the first draw's index must be >= 0", {"SurfaceDrawOptions::firstDraw"});
+    if (options.firstDraw < 0 || options.firstDraw > std::numeric_limits<int>::max() - options.count)
+        throw ParameterError("the first draw's index must be >= 0 and leave room for the draws' indices in an int",
+                             {"SurfaceDrawOptions::firstDraw"});
     if (!(options.openingRatio > 1) || !std::isfinite(options.openingRatio))
         throw ParameterError("the opening ratio must be finite and > 1", {"SurfaceDrawOptions::openingRatio"});
     if (options.leafSize < 1) throw ParameterError("the leaf size must be >= 1", {"SurfaceDrawOptions::leafSize"});
@@ -308,7 +310,7 @@ std::vector<std::vector<float>> SurfaceDraws::onBand(const Band& band, const Pro
 
 double SurfaceDraws::bytes(std::size_t samples, const SurfaceDrawOptions& options) {
     const double N = double(samples), n = double(std::max(options.count, 1));
-    const double nodes = 2.0 * N / double(std::max(options.leafSize, 1)) + 1;
+    const double nodes = 4.0 * N / double(std::max(options.leafSize, 1)) + 1;  // median splits: leaves hold ≥ leafSize / 2
     return N * (48.0 + 4.0 /* order */ + 24.0 * n) + nodes * (sizeof(Node) + 96.0 * n);
 }
 

@@ -11,6 +11,7 @@ namespace gpisvdb {
 namespace {
 
 constexpr double kMaxPoints = 1e8;
+constexpr double kMaxRayPoints = 1e6;  // one ray's points, all evaluated at once (160 B each)
 constexpr std::size_t kBatchPoints = std::size_t(1) << 18;  // points evaluated at once (160 B each)
 
 double normalPdf(double z) { return std::exp(-0.5 * z * z) * 0.3989422804014327; }
@@ -67,8 +68,9 @@ RayHit finish(const std::vector<double>& t, const std::vector<PointRate>& rates,
     std::vector<double> S(m);
     S[0] = rates[0].outside;
     for (std::size_t j = 1; j < m; ++j) {
-        const bool certainEntry = rates[j].outside == 0 && rates[j - 1].outside > 0;  // a certain φ changed sign
-        S[j] = certainEntry ? 0.0 : S[j - 1] * std::exp(-0.5 * (rates[j - 1].rate + rates[j].rate) * (t[j] - t[j - 1]));
+        // Never above P(outside at t_j): a step that jumps over an entry (or a certain φ that changed sign) lands
+        // where the ray is inside whatever the rate says
+        S[j] = std::min(S[j - 1] * std::exp(-0.5 * (rates[j - 1].rate + rates[j].rate) * (t[j] - t[j - 1])), rates[j].outside);
     }
     RayHit h;
     h.insideAtOrigin = 1 - S[0];
@@ -91,16 +93,20 @@ RayHit finish(const std::vector<double>& t, const std::vector<PointRate>& rates,
 
 }  // namespace
 
-std::vector<double> rayParameters(const Ray& ray, double step) {
+std::size_t rayPointCount(const Ray& ray, double step) {
     checkRay(ray);
     if (!(step > 0) || !std::isfinite(step))
         throw ParameterError("the step along rays (RayQueryOptions::step) must be finite and > 0", {"RayQueryOptions::step"});
     const double steps = std::ceil(ray.length / step);
-    if (steps > kMaxPoints)
+    if (steps + 1 > kMaxRayPoints)
         throw ParameterError("a ray of length " + numberText(ray.length) + " at steps of " + numberText(step) +
-                                 " needs more than 1e8 points: use a larger step (RayQueryOptions::step)",
+                                 " needs more than 1e6 points: use a larger step (RayQueryOptions::step)",
                              {"RayQueryOptions::step"});
-    const std::size_t n = std::size_t(steps);
+    return std::size_t(steps) + 1;
+}
+
+std::vector<double> rayParameters(const Ray& ray, double step) {
+    const std::size_t n = rayPointCount(ray, step) - 1;
     std::vector<double> t(n + 1);
     for (std::size_t j = 0; j < n; ++j) t[j] = double(j) * step;
     t[n] = ray.length;
@@ -112,7 +118,7 @@ std::vector<RayHit> queryRays(const GpisModel& model, const std::vector<Ray>& ra
     if (!std::isfinite(options.iso)) throw ParameterError("the iso-value (RayQueryOptions::iso) must be finite", {"RayQueryOptions::iso"});
     // === The points of every ray, counted before any is evaluated
     double total = 0;
-    for (const Ray& r : rays) total += double(rayParameters(r, options.step).size());
+    for (const Ray& r : rays) total += double(rayPointCount(r, options.step));
     if (total > kMaxPoints)
         throw ParameterError("the rays need " + numberText(total) + " points, more than 1e8: use a larger step "
                              "(RayQueryOptions::step) or fewer rays", {"RayQueryOptions::step"});

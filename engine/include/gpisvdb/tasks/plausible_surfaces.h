@@ -50,7 +50,7 @@ public:
     std::vector<std::vector<float>> onBand(const Band& band, const Progress& progress = {}) const;
 
     /// Bytes the draws hold beyond the samples: the noise (2 × 3 floats per sample and draw) and the tree's
-    /// nodes (12 doubles per node and draw), for n samples.
+    /// nodes (12 doubles per node and draw, at most 4 n / leafSize nodes), for n samples.
     static double bytes(std::size_t samples, const SurfaceDrawOptions& options);
 
 private:

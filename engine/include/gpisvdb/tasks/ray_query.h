@@ -12,6 +12,7 @@
 //   S(t) = P(φ(0) < u) · exp(−∫₀ᵗ λ),
 // integrated by the trapezoid rule at steps of `step`. Tested against Monte Carlo over draws of the GPIS
 // (tasks/plausible_surfaces.h).
+#include <cstddef>
 #include <vector>
 
 #include "gpisvdb/core/progress.h"
@@ -40,7 +41,8 @@ struct RayHit {
 
 /// The first-hit distribution along each ray. Parallel over the points (the model's batch evaluation); results do
 /// not depend on the thread count. Throws ParameterError on a ray of zero direction, a non-finite value, a length
-/// ≤ 0 or a step ≤ 0, and when the rays would need more than 1e8 points.
+/// ≤ 0 or a step ≤ 0, and when one ray would need more than 1e6 points or all of them more than 1e8. The no-hit
+/// probability is kept at most P(φ(t) < u) at every point (a step that jumps over an entry lands inside).
 std::vector<RayHit> queryRays(const GpisModel& model, const std::vector<Ray>& rays, const RayQueryOptions& options,
                               const Progress& progress = {});
 
@@ -53,5 +55,8 @@ RayProfile rayProfile(const GpisModel& model, const Ray& ray, const RayQueryOpti
 
 /// The points t_j along a ray at which queryRays evaluates the model: 0, Δ, 2Δ, …, L.
 std::vector<double> rayParameters(const Ray& ray, double step);
+/// Their number, ⌈L / Δ⌉ + 1, counted without making them. Throws ParameterError (as queryRays) on a bad ray or
+/// step, and on more than 1e6 points on one ray (a ray's points are evaluated at once).
+std::size_t rayPointCount(const Ray& ray, double step);
 
 }  // namespace gpisvdb
