@@ -104,11 +104,10 @@ void addQuery(CLI::App& app, Action& action) {
                 parts = {{"values", (kEvaluatedPointBytes + 24.0) * double((std::size_t(1) << 18) + largest)}};
             }
             if (kind == "points") parts = {{"values", kEvaluatedPointBytes * double(pointList.size())}};
-            std::vector<Vec3d> meshPoints;
             const double step = !std::isnan(a->step) ? a->step : m.smoothing / (kind == "mesh" ? 2.0 : 4.0);
             if (kind == "mesh") {
-                meshPoints = meshSamplePoints(meshData->soup->vertices, meshData->soup->triangles, step);
-                parts = {{"values", (kEvaluatedPointBytes + 24.0 + 8.0) * double(meshPoints.size())}, {"draws", 256e6}};
+                const double points = double(meshSamplePointCount(meshData->soup->vertices, meshData->soup->triangles, step));
+                parts = {{"values", (kEvaluatedPointBytes + 24.0 + 8.0) * points}, {"draws", 256e6}};
             }
             const MemoryEstimate memory = estimateStageWithin(limit, "query", "libraries, input, model", parts,
                                                               [](double, double) { return std::string("query fewer rays or points"); });

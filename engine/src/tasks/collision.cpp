@@ -15,16 +15,15 @@ namespace {
 constexpr double kMaxPoints = 1e8;
 constexpr double kDrawBytes = 256e6;  // the draws' noise and tree held at once: the draws go in chunks within it
 
-}  // namespace
-
-std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                                    double step) {
+/// Each triangle's divisions m (its longest edge over the step, rounded up) and the points they make in all:
+/// the vertices and (m + 1)(m + 2)/2 lattice points per triangle, counted before anything is allocated.
+std::vector<int> latticeDivisions(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                                  double step, double& total) {
     if (!(step > 0) || !std::isfinite(step))
         throw ParameterError("the spacing of the points on the mesh (CollisionOptions::step) must be finite and > 0",
                              {"CollisionOptions::step"});
-    // === Counted before anything is allocated: (m + 1)(m + 2)/2 lattice points per triangle, m its divisions
     std::vector<int> divisions(triangles.size());
-    double total = double(vertices.size());
+    total = double(vertices.size());
     for (std::size_t t = 0; t < triangles.size(); ++t) {
         const auto& f = triangles[t];
         for (int c : f)
@@ -38,6 +37,22 @@ std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const st
             throw ParameterError("the mesh sampled at spacing " + numberText(step) + " needs more than 1e8 points: use a "
                                  "larger spacing (CollisionOptions::step)", {"CollisionOptions::step"});
     }
+    return divisions;
+}
+
+}  // namespace
+
+std::size_t meshSamplePointCount(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                                 double step) {
+    double total = 0;
+    latticeDivisions(vertices, triangles, step, total);
+    return std::size_t(total);
+}
+
+std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                                    double step) {
+    double total = 0;
+    const std::vector<int> divisions = latticeDivisions(vertices, triangles, step, total);
     std::vector<Vec3d> points(vertices);
     points.reserve(std::size_t(total));
     for (std::size_t t = 0; t < triangles.size(); ++t) {

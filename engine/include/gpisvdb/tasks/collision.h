@@ -36,6 +36,10 @@ struct CollisionResult {
 /// edges included). Throws ParameterError on a step ≤ 0 or more than 1e8 points.
 std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
                                     double step);
+/// An upper bound on meshSamplePoints' size (it counts the three corners of each triangle's lattice, which are the
+/// vertices), without making the points; the same errors.
+std::size_t meshSamplePointCount(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                                 double step);
 
 /// P(the mesh meets {φ > u}): γ from `model` (the winding model of `samples`), J ε of each draw from the samples'
 /// tree (smoothing s, world units). Throws ParameterError on bad options, InputError on an empty mesh.
