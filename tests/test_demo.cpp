@@ -131,11 +131,12 @@ TEST_CASE("demo: writes every promised file, and each opens in an independent re
     CHECK(input.colours > 30);
     const gpisvdb::test::PngStats comparison = gpisvdb::test::pngStats(dir + "/comparison.png");
     REQUIRE(comparison.readable);
-    // one column per σ; five rows (μ, Green, geodesic, eigenfunction, μ on z = 0: docs/guide.md) and the caption
+    // one column per σ; six rows (μ, Green, geodesic, eigenfunction, μ on z = 0, plausible sections on z = 0:
+    // docs/guide.md) and the caption
     const int strip = captionStripHeight();
     CHECK(strip > 0);
     CHECK(comparison.width == int(report["runs"].size()) * kPictureWidth);
-    CHECK(comparison.height == 5 * input.height + strip);
+    CHECK(comparison.height == 6 * input.height + strip);
     CHECK(comparison.colours > 500);
     CHECK(comparison.nonWhite > 0.2);
 }

@@ -171,7 +171,7 @@ TEST_CASE("memory: info's forecast of the band's peak is within 25 % of the band
     }
 }
 
-TEST_CASE("memory: the demo's estimates of its stages (Green's function, march and spectrum per sigma, pictures) are within 15 % of the peaks measured over them, on two sizes", "[memory][cli][demo]") {
+TEST_CASE("memory: the demo's estimates of its stages (Green's function, march, spectrum and sections per sigma, pictures) are within 15 % of the peaks measured over them, on two sizes", "[memory][cli][demo]") {
     const std::string dir = temp("memory_demo");
     const std::pair<const char*, const char*> sizes[] = {{"0.08", "160"}, {"0.065", "320"}};
     for (const auto& [h, width] : sizes) {
@@ -182,7 +182,7 @@ TEST_CASE("memory: the demo's estimates of its stages (Green's function, march a
         const nlohmann::json report = nlohmann::json::parse(std::ifstream(dir + "/report.json"));
         REQUIRE(report["runs"].size() == 2);
         for (const auto& sigma : report["runs"])
-            for (const char* stage : {"green", "geodesic", "spectrum"}) {
+            for (const char* stage : {"green", "geodesic", "spectrum", "sections"}) {
                 INFO("sigma " << sigma["sigma_rel"] << ", " << stage);
                 checkStage(sigma["memory"]["stages"][stage]);
             }

@@ -131,6 +131,20 @@ TEST_CASE("plausible surfaces: a draw depends on its seed and index alone, not o
         single = SurfaceDraws(ss.samples, s, drawOptions(3, 5, 0)).onBand(band);
     }
     CHECK(single == three);
+
+    // Listed voxels (a slice's, for a section's lines) hold the whole band's values there.
+    std::vector<std::size_t> layer;
+    for (std::size_t i = 0; i < band.size(); ++i)
+        if (band.coord[i].z() == 0) layer.push_back(i);
+    REQUIRE(layer.size() > 100);
+    const auto listed = SurfaceDraws(ss.samples, s, drawOptions(3, 5, 0)).onBand(band, layer);
+    bool same = listed.size() == 3;
+    for (std::size_t k = 0; k < listed.size(); ++k)
+        for (std::size_t j = 0; j < layer.size(); ++j) same = same && listed[k][j] == three[k][layer[j]];
+    CHECK(same);
+    const auto layerGrid = drawGrid(band, layer, listed[0]);
+    CHECK(layerGrid->activeVoxelCount() == openvdb::Index64(layer.size()));
+    CHECK_THROWS_AS(SurfaceDraws(ss.samples, s, drawOptions(1, 5, 0)).onBand(band, {band.size()}), Error);
 }
 
 TEST_CASE("plausible surfaces: the draws' mean area matches the expected area sum mu h^3 within its standard error", "[surfaces]") {

@@ -148,6 +148,28 @@ TEST_CASE("render: log and symmetric ranges, fixed ranges", "[render]") {
     CHECK_NOTHROW(renderPng({p}, o, png("symmetric.png")));
 }
 
+TEST_CASE("render: lines drawn over a slice show in their colour, over the greys map's light ground", "[render]") {
+    const auto ball = ballGrid(12, 0.1);
+    RenderPanel slice;
+    slice.sliceGrid = ball.get();
+    slice.slice = sliceOf("z=0");
+    slice.colormap = Colormap::Greys;
+    RenderOptions o;
+    o.panelWidth = o.panelHeight = 200;
+    const std::string plain = png("slice_greys.png");
+    renderPng({slice}, o, plain);
+    CHECK(test::redMinusBlue(plain, 0, 200, 0, 200) == Approx(0).margin(1.0));  // greys only
+    std::vector<Vec3d> circle;
+    for (int k = 0; k <= 64; ++k)
+        circle.emplace_back(0.6 * std::cos(k * 2 * 3.14159265358979 / 64), 0.6 * std::sin(k * 2 * 3.14159265358979 / 64), 0.3);
+    slice.sliceLines.push_back({{circle}, {1, 0, 0}, 2.0});
+    const std::string lined = png("slice_lines.png");
+    renderPng({slice}, o, lined);
+    CHECK(test::redMinusBlue(lined, 0, 200, 0, 200) > 3);  // measured 4.8: a thin circle among grey pixels
+    // The circle of radius 0.6, half the ball's: grey at the centre.
+    CHECK(test::redMinusBlue(lined, 95, 105, 95, 105) == Approx(0).margin(1.0));
+}
+
 TEST_CASE("render: bad requests are refused with a clear error", "[render]") {
     SurfaceMesh sphere = sphereWithHeight();
     sphere.arrayNames.push_back("vector");
@@ -173,6 +195,10 @@ TEST_CASE("render: bad requests are refused with a clear error", "[render]") {
     miss.sliceGrid = ball.get();
     miss.slice = sliceOf("x=5");
     CHECK_THROWS_WITH(renderPng({miss}, o, path), Catch::Contains("misses the grid"));
+    RenderPanel linedSurface;
+    linedSurface.surface = &sphere;
+    linedSurface.sliceLines.push_back({{{Vec3d(0, 0, 0), Vec3d(1, 0, 0)}}});
+    CHECK_THROWS_WITH(renderPng({linedSurface}, o, path), Catch::Contains("need a slice panel"));
     RenderPanel tiny;
     tiny.surface = &sphere;
     o.panelWidth = 10;
@@ -185,6 +211,7 @@ TEST_CASE("render: colour map and slice names parse, and others are refused", "[
     CHECK(colormapOf("viridis") == Colormap::Viridis);
     CHECK(colormapOf("coolwarm") == Colormap::Coolwarm);
     CHECK(colormapOf("grey") == Colormap::Gray);
+    CHECK(colormapOf("greys") == Colormap::Greys);
     CHECK_THROWS_AS(colormapOf("jet"), ParameterError);
     CHECK(sliceOf("x=-2.5").axis == 0);
     CHECK(sliceOf("x=-2.5").value == -2.5);

@@ -3,7 +3,9 @@
 // distance with a shortest path between points on either side of the gap, and the lowest eigenfunctions. Near the
 // data every result follows the mean surface; across the gap it depends on σ (at small σ the GPIS is not closed
 // there and the path goes round the ring, at larger σ it bridges the gap and the path crosses it).
+#include <array>
 #include <chrono>
+#include <cstdint>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -19,8 +21,10 @@
 #include "gpisvdb/output/mean_surface.h"
 #include "gpisvdb/output/paths.h"
 #include "gpisvdb/output/render.h"
+#include "gpisvdb/output/slice_contour.h"
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/green.h"
+#include "gpisvdb/tasks/plausible_surfaces.h"
 #include "memory_stage.h"
 #include "render_memory.h"
 #include "spectrum_job.h"
@@ -39,6 +43,10 @@ constexpr double kDeg = 3.14159265358979323846 / 180;
 // Source and target on top of the tube, 40° either side of the gap's middle: the short way crosses the gap.
 const Vec3d kSource(std::cos(-40 * kDeg), std::sin(-40 * kDeg), 0.4);
 const Vec3d kTarget(std::cos(40 * kDeg), std::sin(40 * kDeg), 0.4);
+// The plausible sections: draws of the GPIS cut by the plane z = 0, through the ring and the gap.
+const SliceSpec kSection{2, 0.0};
+constexpr int kSectionDraws = 8;
+constexpr std::uint64_t kSectionSeed = 1;
 
 TriangleSoup demoShape() { return cutBox(torus(64, 24), kGapLo, kGapHi); }
 
@@ -73,6 +81,9 @@ struct SigmaRun {
     std::vector<double> eigenvalues;
     SurfaceMesh surface;
     openvdb::FloatGrid::Ptr mu;
+    openvdb::FloatGrid::Ptr occupancy;                          ///< P(inside), for the sections' ground
+    std::vector<std::vector<Vec3d>> meanSection;               ///< {γ = u} on the plane kSection
+    std::vector<std::vector<std::vector<Vec3d>>> drawSections;  ///< {γ + J ε_k = u} on it, per draw
     nlohmann::json timings;
     nlohmann::json memory;  ///< memory.stages.<green|geodesic|spectrum>: estimated and measured (docs/memory.md#demo)
 };
@@ -147,6 +158,33 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
         run.eigenvalues.push_back(eigen.values(i));
     }
 
+    // === Plausible sections: kSectionDraws draws of the field on the band's layer at z = 0 (a few % of its voxels),
+    //     each one's level line u there (docs/uncertainty.md#plausible-surfaces)
+    t = Clock::now();
+    const int layer = int(std::lround(kSection.value / band.voxelSize));
+    std::vector<std::size_t> layerVoxels;
+    for (std::size_t i = 0; i < band.size(); ++i)
+        if (band.coord[i][kSection.axis] == layer) layerVoxels.push_back(i);
+    SurfaceDrawOptions drawOptions;
+    drawOptions.count = kSectionDraws;
+    drawOptions.seed = kSectionSeed;
+    const Samples& samples = job.model.input.samples;
+    const MemoryEstimate sectionMemory = estimateStage(
+        job, "plausible sections",
+        {{"draws' noise and tree", SurfaceDraws::bytes(samples.size(), drawOptions)},
+         {"draws' values on the slice", 2.0 * 4.0 * kSectionDraws * double(layerVoxels.size())}});
+    stageOnly = resetPeakResident();
+    if (!layerVoxels.empty()) {
+        const SurfaceDraws draws(samples, job.model.smoothing, drawOptions);
+        const std::vector<std::vector<float>> fields = draws.onBand(band, layerVoxels, progress);
+        std::vector<float> layerMean;
+        for (std::size_t i : layerVoxels) layerMean.push_back(band.mean[i]);
+        run.meanSection = sliceContour(*drawGrid(band, layerVoxels, layerMean), kSection, band.iso);
+        for (const auto& f : fields) run.drawSections.push_back(sliceContour(*drawGrid(band, layerVoxels, f), kSection, band.iso));
+    }
+    run.memory["sections"] = memoryStageReport(sectionMemory, peakResidentBytes(), stageOnly);
+    const double secondsSections = since(t);
+
     // === Outputs: the .vdb, the mean surface with every scalar field, the path
     t = Clock::now();
     const openvdb::GridPtrVec grids = bandGrids(band, channels, {}, flags.vdb);
@@ -160,6 +198,7 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     for (const auto& g : grids) {
         if (g->getName() == "mean") mean = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
         if (g->getName() == "mu") run.mu = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+        if (g->getName() == flags.vdb.occupancyName) run.occupancy = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
     }
     run.surface = meanSurface(*mean, job.options.iso);
     for (const auto& g : grids)
@@ -168,11 +207,12 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     writeMesh(run.surface, (tmp / run.subdir / "surface.vtp").string(), MeshFormat::Vtp);
     writePaths(geo.paths, (tmp / run.subdir / "path.vtp").string(), PathFormat::Vtp);
     run.timings = {{"band", job.secondsBand}, {"green", secondsGreen}, {"geodesic", secondsGeodesic},
-                   {"spectrum", secondsSpectrum}, {"outputs", since(t)}};
+                   {"spectrum", secondsSpectrum}, {"sections", secondsSections}, {"outputs", since(t)}};
     return run;
 }
 
-/// Rows μ, Green, geodesic with its path, first non-constant eigenfunction, μ on the slice z = 0; columns σ.
+/// Rows μ, Green, geodesic with its path, first non-constant eigenfunction, μ on the slice z = 0, the plausible
+/// sections over P(inside) on it; columns σ.
 void comparisonPicture(const std::vector<SigmaRun>& runs, const DemoArgs& a, const std::string& path) {
     std::vector<RenderPanel> panels;
     auto row = [&](auto make) {
@@ -208,7 +248,20 @@ void comparisonPicture(const std::vector<SigmaRun>& runs, const DemoArgs& a, con
     row([](const SigmaRun& r) {
         RenderPanel p;
         p.title = "mu on the slice z = 0";
-        p.sliceGrid = r.mu.get(), p.slice = {2, 0.0}, p.colormap = Colormap::Magma;
+        p.sliceGrid = r.mu.get(), p.slice = kSection, p.colormap = Colormap::Magma;
+        return p;
+    });
+    row([](const SigmaRun& r) {
+        // matplotlib's tab10, without its grey: told apart on the light ground
+        static const std::array<double, 3> kColours[] = {{0.12, 0.47, 0.71}, {1.00, 0.50, 0.05}, {0.17, 0.63, 0.17},
+                                                         {0.84, 0.15, 0.16}, {0.58, 0.40, 0.74}, {0.55, 0.34, 0.29},
+                                                         {0.89, 0.47, 0.76}, {0.09, 0.75, 0.81}};
+        RenderPanel p;
+        p.title = "P(inside); " + std::to_string(r.drawSections.size()) + " plausible sections, mean black";
+        p.sliceGrid = r.occupancy.get(), p.slice = kSection, p.colormap = Colormap::Greys, p.range = {0.0, 1.0};
+        for (std::size_t k = 0; k < r.drawSections.size(); ++k)
+            p.sliceLines.push_back({r.drawSections[k], kColours[k % std::size(kColours)], 1.5});
+        p.sliceLines.push_back({r.meanSection, {0, 0, 0}, 3.0});
         return p;
     });
     RenderOptions o;
@@ -254,7 +307,10 @@ void writeSummary(const std::vector<SigmaRun>& runs, const DemoArgs& a, double e
     }
     s << "\nNear the data every field follows the mean surface whatever sigma; across the gap the GPIS is "
          "uncertain: at small sigma its density mu there is too low for the band to close it, and the shortest path "
-         "goes round the ring; at larger sigma the band bridges the gap and the path crosses it.\n\n"
+         "goes round the ring; at larger sigma the band bridges the gap and the path crosses it. The last row cuts "
+         "the plane z = 0: the probability of being inside in grey, the mean surface's trace in black and, in colour, "
+         "the traces of " << kSectionDraws << " plausible surfaces (draws of the GPIS, seed " << kSectionSeed << "): they "
+         "agree near the data and scatter across the gap.\n\n"
       << "Files, per sigma in `sigma-<s>/`: `gpis.vdb` (band grids mu, mean, stddev, T_diag, T_offdiag, normal, "
          "stencil_width, and green, geodesic, eigen_000...), `surface.vtp` (the mean surface with every scalar "
          "field), `path.vtp` (the shortest path); `report.json` (all numbers). Ran in " << std::setprecision(3)
@@ -311,12 +367,12 @@ void addDemo(CLI::App& app, Action& action) {
                               << ", lambda_0 = " << r.eigenvalues.front() << "\n";
             }
             const auto tPictures = Clock::now();
-            // The comparison's memory (the larger picture): each surface in its 4 surface panels, the window of 5
+            // The comparison's memory (the larger picture): each surface in its 4 surface panels, the window of 6
             // panels per sigma (docs/memory.md#demo); the input's picture, made after it, holds less
             double panelVertices = 0;
             for (const SigmaRun& r : runs) panelVertices += 4.0 * double(r.surface.vertices.size());
             const double panelPixels = double(a->pictureWidth) * double(a->pictureWidth * 5 / 6);
-            const double pixels = 5.0 * double(runs.size()) * panelPixels;
+            const double pixels = 6.0 * double(runs.size()) * panelPixels;
             const MemoryEstimate picturesMemory = estimateStageWithin(
                 limit, "pictures", "libraries, the results of every sigma", renderBytes(panelVertices, pixels),
                 [&](double need, double available) {
@@ -338,7 +394,9 @@ void addDemo(CLI::App& app, Action& action) {
                                                 {"gap_box_max", {kGapHi.x(), kGapHi.y(), kGapHi.z()}}, {"triangles", data.soup->triangles.size()},
                                                 {"length_scale", ell}}},
                                      {"voxel_size", a->voxelSize > 0 ? nlohmann::json(a->voxelSize) : nlohmann::json("default rule per sigma")}, {"source", {kSource.x(), kSource.y(), kSource.z()}},
-                                     {"target", {kTarget.x(), kTarget.y(), kTarget.z()}}, {"runs", nlohmann::json::array()}};
+                                     {"target", {kTarget.x(), kTarget.y(), kTarget.z()}},
+                                     {"plausible_sections", {{"plane", "z = 0"}, {"draws", kSectionDraws}, {"seed", kSectionSeed}}},
+                                     {"runs", nlohmann::json::array()}};
             for (const SigmaRun& r : runs)
                 report["runs"].push_back({{"sigma_rel", r.sigmaRel}, {"sigma", r.sigma}, {"voxel_size", r.voxelSize}, {"directory", r.subdir},
                                           {"band_voxels", r.voxels}, {"band_mass", r.mass},

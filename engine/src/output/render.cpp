@@ -74,6 +74,10 @@ Ptr<vtkLookupTable> lookupTable(Colormap map, std::array<double, 2> range, bool 
             ctf->AddRGBPoint(0.0, 0.05, 0.05, 0.05);
             ctf->AddRGBPoint(1.0, 0.95, 0.95, 0.95);
             break;
+        case Colormap::Greys:
+            ctf->AddRGBPoint(0.0, 0.98, 0.98, 0.98);
+            ctf->AddRGBPoint(1.0, 0.55, 0.55, 0.55);
+            break;
     }
     auto lut = Ptr<vtkLookupTable>::New();
     lut->SetNumberOfTableValues(256);
@@ -278,6 +282,32 @@ void addSlice(vtkRenderer* r, const RenderPanel& panel) {
     actor->GetProperty()->LightingOff();
     r->AddActor(actor);
     r->AddActor2D(colourBar(lut, grid.getName() + (panel.logScale ? " (log)" : "")));
+
+    // === Lines over the image: world points into the image's (u, v) frame, a little towards the camera
+    for (const PanelLines& group : panel.sliceLines) {
+        auto pts = Ptr<vtkPoints>::New();
+        auto cells = Ptr<vtkCellArray>::New();
+        for (const auto& line : group.polylines) {
+            if (line.size() < 2) continue;
+            cells->InsertNextCell(vtkIdType(line.size()));
+            for (const Vec3d& p : line) {
+                const openvdb::Vec3d x = grid.transform().worldToIndex(openvdb::Vec3d(p.x(), p.y(), p.z()));
+                cells->InsertCellPoint(pts->InsertNextPoint(x[iu] * h, x[iv] * h, 0.01 * h));
+            }
+        }
+        auto lines = Ptr<vtkPolyData>::New();
+        lines->SetPoints(pts);
+        lines->SetLines(cells);
+        auto lineMapper = Ptr<vtkPolyDataMapper>::New();
+        lineMapper->SetInputData(lines);
+        lineMapper->ScalarVisibilityOff();
+        auto lineActor = Ptr<vtkActor>::New();
+        lineActor->SetMapper(lineMapper);
+        lineActor->GetProperty()->SetColor(group.colour[0], group.colour[1], group.colour[2]);
+        lineActor->GetProperty()->SetLineWidth(float(group.width));
+        lineActor->GetProperty()->LightingOff();
+        r->AddActor(lineActor);
+    }
     vtkCamera* cam = r->GetActiveCamera();
     cam->ParallelProjectionOn();
     r->ResetCamera();
@@ -291,7 +321,8 @@ Colormap colormapOf(const std::string& name) {
     if (name == "magma") return Colormap::Magma;
     if (name == "coolwarm") return Colormap::Coolwarm;
     if (name == "gray" || name == "grey") return Colormap::Gray;
-    throw ParameterError("unknown colour map '" + name + "' (viridis, magma, coolwarm or gray)");
+    if (name == "greys") return Colormap::Greys;
+    throw ParameterError("unknown colour map '" + name + "' (viridis, magma, coolwarm, gray or greys)");
 }
 
 SliceSpec sliceOf(const std::string& text) {
@@ -316,9 +347,11 @@ void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, c
     if (panels.empty()) throw ParameterError("nothing to render");
     if (o.panelWidth < 64 || o.panelHeight < 64 || o.panelWidth > 8192 || o.panelHeight > 8192)
         throw ParameterError("picture panels must be 64 to 8192 pixels wide and high");
-    for (const RenderPanel& p : panels)
+    for (const RenderPanel& p : panels) {
         if (bool(p.surface) == bool(p.sliceGrid))
             throw ParameterError("a picture panel shows either a surface or a slice");
+        if (p.surface && !p.sliceLines.empty()) throw ParameterError("lines over a slice need a slice panel");
+    }
     // Refused before rendering: cheaper, and VTK's PNG writer leaks libpng's structures on its own error path.
     const std::filesystem::path folder = std::filesystem::path(path).has_parent_path()
                                              ? std::filesystem::path(path).parent_path() : ".";

@@ -283,24 +283,38 @@ std::vector<double> SurfaceDraws::perturbationExact(const Vec3d& x) const {
 }
 
 std::vector<std::vector<float>> SurfaceDraws::onBand(const Band& band, const Progress& progress) const {
+    return onVoxels(band, band.size(), [](std::size_t j) { return j; }, progress);
+}
+
+std::vector<std::vector<float>> SurfaceDraws::onBand(const Band& band, const std::vector<std::size_t>& voxels,
+                                                     const Progress& progress) const {
+    for (std::size_t i : voxels)
+        if (i >= band.size()) throw Error("a listed voxel is not in the band");
+    return onVoxels(band, voxels.size(), [&](std::size_t j) { return voxels[j]; }, progress);
+}
+
+template <class VoxelOf>
+std::vector<std::vector<float>> SurfaceDraws::onVoxels(const Band& band, std::size_t count, VoxelOf voxelOf,
+                                                       const Progress& progress) const {
     if (band.mean.size() != band.size())
         throw Error("the band's mean channel was released (a spill): plausible surfaces need it");
-    const std::size_t n = std::size_t(impl_->options.count), voxels = band.size();
-    std::vector<std::vector<float>> values(n, std::vector<float>(voxels));
+    const std::size_t n = std::size_t(impl_->options.count);
+    std::vector<std::vector<float>> values(n, std::vector<float>(count));
     const double h = band.voxelSize;
     constexpr std::size_t kBlock = 1 << 15;  // voxels between progress reports
-    for (std::size_t start = 0; start < voxels; start += kBlock) {
+    for (std::size_t start = 0; start < count; start += kBlock) {
         progress.checkInterrupt();
-        progress.update("plausible surfaces", double(start) / double(voxels));
-        const std::size_t stop = std::min(voxels, start + kBlock);
+        progress.update("plausible surfaces", double(start) / double(count));
+        const std::size_t stop = std::min(count, start + kBlock);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(start, stop, 64), [&](const tbb::blocked_range<std::size_t>& r) {
             std::vector<double> out(n);
-            for (std::size_t i = r.begin(); i < r.end(); ++i) {
-                progress.checkInterruptAt(i);
+            for (std::size_t j = r.begin(); j < r.end(); ++j) {
+                progress.checkInterruptAt(j);
+                const std::size_t i = voxelOf(j);
                 const openvdb::Coord& c = band.coord[i];
                 std::fill(out.begin(), out.end(), 0.0);
                 impl_->addPerturbation(Vec3d(h * c.x(), h * c.y(), h * c.z()), out.data());
-                for (std::size_t k = 0; k < n; ++k) values[k][i] = float(double(band.mean[i]) + kInv4Pi * out[k]);
+                for (std::size_t k = 0; k < n; ++k) values[k][j] = float(double(band.mean[i]) + kInv4Pi * out[k]);
             }
         });
     }
@@ -321,6 +335,19 @@ openvdb::FloatGrid::Ptr drawGrid(const Band& band, const std::vector<float>& val
     grid->setTransform(band.index->transform().copy());
     auto acc = grid->getAccessor();
     for (std::size_t i = 0; i < band.size(); ++i) acc.setValue(band.coord[i], values[i]);
+    return grid;
+}
+
+openvdb::FloatGrid::Ptr drawGrid(const Band& band, const std::vector<std::size_t>& voxels, const std::vector<float>& values) {
+    if (values.size() != voxels.size()) throw Error("a draw's values do not match the listed voxels");
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("draw");
+    grid->setTransform(band.index->transform().copy());
+    auto acc = grid->getAccessor();
+    for (std::size_t j = 0; j < voxels.size(); ++j) {
+        if (voxels[j] >= band.size()) throw Error("a listed voxel is not in the band");
+        acc.setValue(band.coord[voxels[j]], values[j]);
+    }
     return grid;
 }
 

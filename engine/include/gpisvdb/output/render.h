@@ -10,20 +10,24 @@
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/core/types.h"
 #include "gpisvdb/output/mean_surface.h"
+#include "gpisvdb/output/slice_contour.h"
 
 namespace gpisvdb {
 
-enum class Colormap { Viridis, Magma, Coolwarm, Gray };
-/// "viridis", "magma", "coolwarm", "gray"; throws ParameterError otherwise.
+/// Gray runs from black to white; Greys from white to mid grey (a light ground for lines drawn over it).
+enum class Colormap { Viridis, Magma, Coolwarm, Gray, Greys };
+/// "viridis", "magma", "coolwarm", "gray", "greys"; throws ParameterError otherwise.
 Colormap colormapOf(const std::string& name);
 
-/// A plane through a float grid: axis 0, 1, 2 (x, y, z) at world coordinate `value`.
-struct SliceSpec {
-    int axis = 2;
-    double value = 0;
-};
 /// "z=0.1", "x=-2": throws ParameterError otherwise.
 SliceSpec sliceOf(const std::string& text);
+
+/// Lines of one colour over a slice panel, e.g. sliceContour's level lines.
+struct PanelLines {
+    std::vector<std::vector<Vec3d>> polylines;  ///< world units; the coordinate along the slice's axis is ignored
+    std::array<double, 3> colour{0, 0, 0};      ///< RGB in [0, 1]
+    double width = 1.5;                         ///< pixels
+};
 
 struct RenderPanel {
     std::string title;                       ///< drawn above the panel
@@ -32,6 +36,7 @@ struct RenderPanel {
     std::vector<std::vector<Vec3d>> paths;   ///< polylines drawn over the surface, world units
     const openvdb::FloatGrid* sliceGrid = nullptr;  ///< with `slice`: drawn head-on, inactive voxels transparent
     SliceSpec slice;
+    std::vector<PanelLines> sliceLines;      ///< drawn over the slice, in order (slice panels only)
     Colormap colormap = Colormap::Viridis;
     bool logScale = false;                   ///< colours by log10 (needs positive values; others clamp to the lowest)
     bool symmetric = false;                  ///< range ±max|value| (signed fields such as eigenfunctions)

@@ -48,17 +48,26 @@ public:
     /// γ + J ε_k at the band's voxel centres: values[k][i] for draw firstDraw + k and voxel i (the band's `mean`
     /// channel as γ). Parallel over voxels; the result does not depend on the thread count.
     std::vector<std::vector<float>> onBand(const Band& band, const Progress& progress = {}) const;
+    /// The same at the listed voxels only (linear indices into the band): values[k][j] for voxel voxels[j], equal to
+    /// the whole band's values there (a section's lines need a slice of the band, not all of it).
+    std::vector<std::vector<float>> onBand(const Band& band, const std::vector<std::size_t>& voxels,
+                                           const Progress& progress = {}) const;
 
     /// Bytes the draws hold beyond the samples: the noise (2 × 3 floats per sample and draw) and the tree's
     /// nodes (12 doubles per node and draw, at most 4 n / leafSize nodes), for n samples.
     static double bytes(std::size_t samples, const SurfaceDrawOptions& options);
 
 private:
+    template <class VoxelOf>
+    std::vector<std::vector<float>> onVoxels(const Band& band, std::size_t count, VoxelOf voxelOf,
+                                             const Progress& progress) const;
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
 
 /// A draw's field over the band as a float grid (the band's transform and voxels), ready for meanSurface(grid, u).
 openvdb::FloatGrid::Ptr drawGrid(const Band& band, const std::vector<float>& values);
+/// The same over the listed voxels only (values[j] at voxel voxels[j], as onBand(band, voxels) gives them).
+openvdb::FloatGrid::Ptr drawGrid(const Band& band, const std::vector<std::size_t>& voxels, const std::vector<float>& values);
 
 }  // namespace gpisvdb
