@@ -169,17 +169,19 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     drawOptions.count = kSectionDraws;
     drawOptions.seed = kSectionSeed;
     const Samples& samples = job.model.input.samples;
+    std::vector<float> layerMean;
+    for (std::size_t i : layerVoxels) layerMean.push_back(band.mean[i]);
+    const auto meanLayer = drawGrid(band, layerVoxels, layerMean);
     const MemoryEstimate sectionMemory = estimateStage(
         job, "plausible sections",
         {{"draws' noise and tree", SurfaceDraws::bytes(samples.size(), drawOptions)},
-         {"draws' values on the slice", 2.0 * 4.0 * kSectionDraws * double(layerVoxels.size())}});
+         {"draws' values on the slice", 4.0 * kSectionDraws * double(layerVoxels.size())},
+         {"draw's grid", double(meanLayer->memUsage())}});  // one at a time, the mean's topology
     stageOnly = resetPeakResident();
     if (!layerVoxels.empty()) {
         const SurfaceDraws draws(samples, job.model.smoothing, drawOptions);
         const std::vector<std::vector<float>> fields = draws.onBand(band, layerVoxels, progress);
-        std::vector<float> layerMean;
-        for (std::size_t i : layerVoxels) layerMean.push_back(band.mean[i]);
-        run.meanSection = sliceContour(*drawGrid(band, layerVoxels, layerMean), kSection, band.iso);
+        run.meanSection = sliceContour(*meanLayer, kSection, band.iso);
         for (const auto& f : fields) run.drawSections.push_back(sliceContour(*drawGrid(band, layerVoxels, f), kSection, band.iso));
     }
     run.memory["sections"] = memoryStageReport(sectionMemory, peakResidentBytes(), stageOnly);
