@@ -14,7 +14,7 @@ void addMpiBand(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
         BandFlags flags;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("-o,--output", a->output, "output .vdb (written by rank 0)")->required();
     addBandFlags(*cmd, a->flags);
     cmd->footer("The same grids and metadata as gpisvdb band; the report adds an 'mpi' section.\n"

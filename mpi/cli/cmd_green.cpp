@@ -17,7 +17,7 @@ void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
         PcgOptions solver;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("--source", a->source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
         ->required()
         ->delimiter(',')

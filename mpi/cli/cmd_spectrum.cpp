@@ -17,7 +17,7 @@ void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
         EigenOptions eigen;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("-o,--output", a->output, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)")->required();
     addEigenFlags(*cmd, a->eigen);
     addBandFlags(*cmd, a->flags);

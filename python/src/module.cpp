@@ -908,7 +908,7 @@ The other keywords as for Model(V, F, ...).)doc")
             "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
             "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
             "threads"_a = 0,
-            R"doc(A model of a file: a triangle soup (.obj .off .ply .stl .vtp) or an oriented cloud (.xyz .ply .vtp), as the
+            R"doc(A model of a file: a triangle soup (.obj .off .ply .stl .vtp), an oriented cloud (.xyz .ply .vtp) or Gaussian dipoles (.gdp), as the
 command line reads it. Keywords as for Model(V, F, ...); a cloud's per-point sigma column is used where present.)doc")
         .def("evaluate", &evaluateModel, "points"_a, py::kw_only(), "iso"_a = py::none(), "qmc"_a = 512, "threads"_a = 0,
              "progress"_a = py::none(),

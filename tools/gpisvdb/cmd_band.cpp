@@ -15,7 +15,7 @@ void addBand(CLI::App& app, Action& action) {
         BandFlags flags;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("-o,--output", a->output, "output .vdb")->required();
     addBandFlags(*cmd, a->flags);
     cmd->footer("Writes grids mu, mean, stddev, T_diag, T_offdiag, normal, stencil_width (voxel centres at h*k) and\n"

@@ -23,7 +23,7 @@ void addDistance(CLI::App& app, Action& action) {
         SmoothedDistanceOptions distance;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("--alpha", a->distance.alpha, "sharpness alpha (world units^-1, > 0): d -> distance to the band as alpha grows")->required();
     cmd->add_option("-o,--output", a->output, "output .vdb (smoothed_distance; with --level also smoothed_distance_level)")->required();
     cmd->add_option("--grid-voxel-size", a->distance.gridVoxelSize, "voxel size H of the distance grid (world units; default: padded box / 128)");

@@ -36,7 +36,7 @@ void addEvaluate(CLI::App& app, Action& action) {
         StageFlags stage;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("--at", a->at, "query points, one 'x y z' per line (world units)")->required();
     cmd->add_option("-o,--output", a->output, "output CSV")->required();
     addModelFlags(*cmd, a->flags, true);

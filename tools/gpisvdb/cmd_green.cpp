@@ -20,7 +20,7 @@ void addGreen(CLI::App& app, Action& action) {
         Spill spill = Spill::Automatic;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("--source", a->source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
         ->required()
         ->delimiter(',')

@@ -43,7 +43,7 @@ void addHodge(CLI::App& app, Action& action) {
         PcgOptions solver;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     auto* field = cmd->add_option("--field", a->field, "vector field FILE.vdb or FILE.vdb:GRID (Vec3s grid, world units), sampled at the band's voxels");
     auto* preset = cmd->add_option("--preset", a->preset, "built-in field: rotation (about z through the mu-centroid), gradient (grad_phi z) or mixed (their sum)")
                        ->check(CLI::IsMember({"rotation", "gradient", "mixed"}));

@@ -83,7 +83,7 @@ void addInfo(CLI::App& app, Action& action) {
         bool forecast = true;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     addBandFlags(*cmd, a->flags);
     cmd->add_flag("!--no-forecast", a->forecast, "describe the input only: no model, no band forecast");
     cmd->footer("The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
@@ -115,7 +115,7 @@ void addInfo(CLI::App& app, Action& action) {
                 const double ell = s.samples.lengthScale;
                 std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
                           << "samples:      " << s.samples.size() << "\n"
-                          << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : " (sqrt(area / points))") << "\n"
+                          << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : s.lengthScaleGiven ? " (given in the file)" : " (sqrt(area / points))") << "\n"
                           << "bbox min:     " << lo.transpose() << "\n"
                           << "bbox max:     " << hi.transpose() << "\n"
                           << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"

@@ -37,7 +37,7 @@ void addQuery(CLI::App& app, Action& action) {
         StageFlags stage;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     auto* rays = cmd->add_option("--rays", a->rays, "rays, one 'ox oy oz dx dy dz length' per line (world units)");
     auto* points = cmd->add_option("--points", a->points, "points, one 'x y z' per line (world units)");
     auto* mesh = cmd->add_option("--mesh", a->mesh, "a triangle mesh (.obj .off .ply .stl .vtp): its probability of meeting the inside");

@@ -22,7 +22,7 @@ void addSample(CLI::App& app, Action& action) {
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("FILE", a->input, "a .vdb written by gpisvdb")->required();
-    cmd->add_option("--at", a->at, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp) to sample at")->required();
+    cmd->add_option("--at", a->at, std::string(kInputHelp) + " to sample at")->required();
     cmd->add_option("--grid", a->grids, "grid(s) to sample (float or vec3; default: all of them)");
     cmd->add_option("-o,--output", a->output, "output, .ply or .vtp: the input's vertices (and triangles) with one value per grid")->required();
     cmd->add_option("--threads", a->threads, "worker threads (0 = all cores)")->capture_default_str();

@@ -18,7 +18,7 @@ void addSpectrum(CLI::App& app, Action& action) {
         EigenOptions eigen;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("-o,--output", a->output, "output .vdb (band grids and eigen_000, eigen_001, ...)")->required();
     addEigenFlags(*cmd, a->eigen);
     addBandFlags(*cmd, a->flags);

@@ -71,7 +71,7 @@ void addSurfaces(CLI::App& app, Action& action) {
         BandFlags flags;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("-o,--output", a->dir, "output directory (created; files of the same names in it are replaced)")->required();
     cmd->add_option("-n,--count", a->draws.count, "number of draws (1 to 10000)")->capture_default_str();
     cmd->add_option("--seed", a->draws.seed, "random seed: draw k is the same for a seed whatever n, --first or --threads")

@@ -21,5 +21,6 @@ void addRender(CLI::App& app, Action& action);
 void addSample(CLI::App& app, Action& action);
 void addSurfaces(CLI::App& app, Action& action);
 void addQuery(CLI::App& app, Action& action);
+void addConvert(CLI::App& app, Action& action);
 
 }  // namespace gpisvdb::cli

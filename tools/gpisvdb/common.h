@@ -91,5 +91,7 @@ bool interruptRequested();
 /// The first signal received (SIGINT or SIGTERM), 0 if none: main returns 128 + it.
 int interruptSignal();
 constexpr int kInterruptGraceMs = 500;
+/// What an INPUT may be, for the commands' --help (readInput's formats).
+constexpr const char* kInputHelp = "mesh (.obj .off .ply .stl .vtp), oriented cloud (.xyz .ply .vtp) or Gaussian dipoles (.gdp)";
 
 }  // namespace gpisvdb::cli

@@ -32,7 +32,7 @@ nlohmann::json finiteOrNull(double v) { return std::isfinite(v) ? nlohmann::json
 void addGeodesicFlags(CLI::App& cmd_, GeodesicArgs& args) {
     CLI::App* cmd = &cmd_;
     GeodesicArgs* a = &args;
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("--source", a->sources, "source point X,Y,Z (world units; repeat for several), snapped to the nearest band voxel")
         ->required()
         ->delimiter(',');

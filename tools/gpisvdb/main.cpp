@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
     cli::addSample(app, action);
     cli::addSurfaces(app, action);
     cli::addQuery(app, action);
+    cli::addConvert(app, action);
     for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
     try {
         app.parse(argc, argv);

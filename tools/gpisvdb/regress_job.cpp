@@ -13,7 +13,7 @@ namespace gpisvdb::cli {
 void addRegressFlags(CLI::App& cmd_, RegressArgs& args) {
     CLI::App* cmd = &cmd_;
     RegressArgs* a = &args;
-    cmd->add_option("INPUT", a->input, "mesh (.obj .off .ply .stl .vtp) or oriented cloud (.xyz .ply .vtp)")->required();
+    cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("--data", a->data, "CSV of x,y,z,value[,noise] (world units; noise: std of the value, 0 = exact)")->required();
     cmd->add_option("-o,--output", a->output, "output .vdb (band grids, regression_mean, regression_variance)")->required();
     cmd->add_option("--nu", a->nu, "Matern smoothness: 0.5, 1.5, 2.5, any value > 0, or inf (squared exponential)")

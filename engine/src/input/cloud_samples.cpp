@@ -95,6 +95,14 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     if (cloud.normals.size() != n) throw InputError("the point cloud has no normals (need nx ny nz per point)");
     for (std::size_t i = 0; i < n; ++i)
         if (!(cloud.normals[i].norm() > 0)) throw InputError("point " + std::to_string(i + 1) + " has a zero normal");
+    if (!cloud.normalCovariances.empty() && cloud.normalCovariances.size() != n)
+        throw InputError("the point cloud has " + std::to_string(cloud.normalCovariances.size()) +
+                         " normal covariances for " + std::to_string(n) + " points");
+    if (!cloud.positionVariances.empty() && cloud.positionVariances.size() != n)
+        throw InputError("the point cloud has " + std::to_string(cloud.positionVariances.size()) +
+                         " position variances for " + std::to_string(n) + " points");
+    if (!(cloud.lengthScale >= 0) || !std::isfinite(cloud.lengthScale))
+        throw InputError("the point cloud's given length scale must be finite and > 0");
     if (!cloud.areas.empty()) {
         if (cloud.areas.size() != n)
             throw InputError("the point cloud has " + std::to_string(cloud.areas.size()) + " areas for " +
@@ -140,7 +148,7 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     std::nth_element(areas.begin(), areas.begin() + std::ptrdiff_t(kept - 1), areas.end());
     double keptArea = 0;
     for (std::size_t i = 0; i < kept; ++i) keptArea += areas[i];
-    const double ell = std::sqrt(keptArea / double(kept));
+    const double ell = cloud.lengthScale > 0 ? cloud.lengthScale : std::sqrt(keptArea / double(kept));
     if (!(ell > 0) || !std::isfinite(ell))
         throw InputError(cloud.areas.empty() ? "all points of the cloud coincide"
                                              : "the point cloud's areas are all 0 (or all but 1 %)");
@@ -157,13 +165,16 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
         const Vec3d nrm = cloud.normals[i].normalized();
         const double a = pointArea[i];
         const double sigma = cloud.sigmas.empty() ? out.sigma : cloud.sigmas[i];
-        if (!(sigma > 0)) throw InputError("point " + std::to_string(i + 1) + " has sigma <= 0");
+        const double variance = cloud.positionVariances.empty() ? sigma * sigma : cloud.positionVariances[i];
+        if (!(variance > 0)) throw InputError("point " + std::to_string(i + 1) + " has sigma <= 0");
         // Σ' = a² τ² (I − n nᵀ), τ = σ/√a (normal-angle std = position std over the local spacing)
-        const double tau2a2 = a * sigma * sigma;
+        const double tau2a2 = a * variance;
         S.position.push_back(cloud.positions[i]);
-        S.normal.push_back(a * nrm);
-        S.positionVariance.push_back(sigma * sigma);
-        S.normalCovariance.push_back(Sym3::from(tau2a2 * (Mat3d::Identity() - nrm * nrm.transpose())));
+        S.normal.push_back(cloud.vectorAreas ? cloud.normals[i] : a * nrm);
+        S.positionVariance.push_back(variance);
+        S.normalCovariance.push_back(cloud.normalCovariances.empty()
+                                         ? Sym3::from(tau2a2 * (Mat3d::Identity() - nrm * nrm.transpose()))
+                                         : cloud.normalCovariances[i]);
     }
     return out;
 }

@@ -77,9 +77,10 @@ InputData readInput(const std::string& path) {
     else if (ext == ".stl") data = detail::readStl(path);
     else if (ext == ".xyz") data = detail::readXyz(path);
     else if (ext == ".vtp") data = detail::readVtp(path);
+    else if (ext == ".gdp") data = detail::readGdp(path);
     else
         throw InputError(path + ": unknown extension '" + ext +
-                         "' (meshes: .obj .off .ply .stl .vtp; oriented clouds: .xyz .ply .vtp)");
+                         "' (meshes: .obj .off .ply .stl .vtp; oriented clouds: .xyz .ply .vtp; Gaussian dipoles: .gdp)");
     data.path = path;
     detail::checkSampleCount(path, data.soup ? data.soup->triangles.size() : data.cloud ? data.cloud->positions.size() : 0,
                              data.soup ? "triangles" : "points");
@@ -94,6 +95,8 @@ InputData readInput(const std::string& path) {
         detail::checkFinite(path, data.cloud->normals, "normal");
         for (double s : data.cloud->sigmas)
             if (!(s > 0) || !std::isfinite(s)) throw InputError(path + ": per-point sigma must be finite and > 0");
+        for (double v : data.cloud->positionVariances)
+            if (!(v > 0) || !std::isfinite(v)) throw InputError(path + ": per-point position variance must be finite and > 0");
     }
     return data;
 }
@@ -125,7 +128,8 @@ InputSamples makeSamples(const InputData& input, const NoiseOptions& options) {
         CloudSamples s = cloudSamples(*input.cloud, co);
         out.samples = std::move(s.samples);
         out.sigma = s.sigma;
-        out.absoluteNoise = !input.cloud->sigmas.empty();
+        out.absoluteNoise = !input.cloud->sigmas.empty() || !input.cloud->positionVariances.empty();
+        out.lengthScaleGiven = input.cloud->lengthScale > 0;
     } else {
         throw InputError(input.path + ": holds neither a mesh nor a point cloud");
     }

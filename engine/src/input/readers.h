@@ -12,6 +12,7 @@ InputData readPly(const std::string& path);
 InputData readXyz(const std::string& path);
 InputData readStl(const std::string& path);
 InputData readVtp(const std::string& path);
+InputData readGdp(const std::string& path);  // gdp.cpp
 
 /// Whole file as bytes; throws InputError when it cannot be opened or is empty.
 std::string slurp(const std::string& path);

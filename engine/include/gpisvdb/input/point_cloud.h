@@ -12,6 +12,12 @@ struct PointCloud {
     std::vector<Vec3d> normals;     ///< any length > 0; normalised when sampled
     std::vector<double> sigmas;     ///< optional per-point position std (world units); empty = use sigmaRel
     std::vector<double> areas;      ///< optional per-point area (world units²); empty = estimate
+    std::vector<Sym3> normalCovariances;  ///< optional per-point Σ'_i, the covariance of the vector area a_i n_i
+                                          ///< (world units⁴; a .gdp's); empty = the formula of cloudSamples
+    std::vector<double> positionVariances;  ///< optional per-point σ_i² (world units²), in place of sigmas (a .gdp's,
+                                            ///< kept exact)
+    bool vectorAreas = false;  ///< the normals are the vector areas w_i themselves (a .gdp's), taken as they are
+    double lengthScale = 0;    ///< > 0: ℓ as given (world units; a .gdp written by gpisvdb), else √(area / points)
 };
 
 struct CloudNoiseOptions {
@@ -29,7 +35,8 @@ struct CloudSamples {
 };
 
 /// Samples of an oriented cloud: w_i = a_i n_i, Σ_i = σ_i² I and Σ'_i = a_i² τ_i² (I − n_i n_iᵀ) with the
-/// normal-angle std τ_i = σ_i / √a_i (position noise over the local spacing). ℓ = √(A / N), A / N the mean of the
+/// normal-angle std τ_i = σ_i / √a_i (position noise over the local spacing), or the cloud's own Σ'_i, σ_i², w_i and
+/// ℓ where it gives them. ℓ = √(A / N), A / N the mean of the
 /// areas less the largest 1 % (docs/math.md#length-scale). Throws InputError on fewer than 2 points or a zero normal.
 CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& options = {});
 

@@ -1,6 +1,7 @@
 #pragma once
 // Reading inputs from files. Soups: OBJ, OFF, PLY (with faces), STL. Clouds: XYZ (x y z nx ny nz [sigma]),
-// PLY (no faces; nx ny nz, optional sigma), VTP (Normals point data, optional sigma array; polygons make it a soup).
+// PLY (no faces; nx ny nz, optional sigma), VTP (Normals point data, optional sigma array; polygons make it a soup),
+// GDP (Gaussian dipoles with their covariances, gdp.h: a cloud with its own noise).
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,6 +38,7 @@ struct InputSamples {
     std::size_t degenerateSkipped = 0;  ///< zero-area triangles left out
     bool isSoup = false;
     bool absoluteNoise = false;         ///< a cloud with its own σ per point (world units), not σ = sigmaRel·ℓ
+    bool lengthScaleGiven = false;      ///< ℓ came with the input (a .gdp written by gpisvdb), not from its geometry
 };
 
 /// Samples of either kind of input with its noise model.
