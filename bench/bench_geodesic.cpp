@@ -14,6 +14,7 @@
 
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/core/memory_estimate.h"
+#include "gpisvdb/solve/fast_marching.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/stencil/resolution.h"

@@ -18,6 +18,8 @@ inline std::filesystem::path scratchDir() {
 }
 
 inline std::string dataPath(const std::string& name) { return std::string(GPISVDB_DATA_DIR) + "/" + name; }
+/// Data made for the tests alone (tests/data/README.md), not inputs users have.
+inline std::string testDataPath(const std::string& name) { return std::string(GPISVDB_TEST_DATA_DIR) + "/" + name; }
 
 /// Whether timing promises (a flag or signal stops the work within a second) are checked. Not in sanitizer
 /// builds (tools/sanitize), which run the same code 10–100× slower: there the tests run every step and check every

@@ -93,7 +93,7 @@ TEST_CASE("gdp: a soup written as .gdp and read back gives the same default band
     // σ_rel 0.5: the soup's position std σ/√3 keeps the cloud's noise smoothing (1.2 σ_i) below 0.4 ℓ, so both
     // take s = 0.4 ℓ (docs/guide.md#gdp)
     InputData mesh;
-    mesh.soup = icosphere(3);
+    mesh.soup = icosphere(2);
     mesh.path = "icosphere";
     const LoadedModel fromSoup = loadModel(mesh);
     writeGdp(fromSoup.input.samples, temp("band.gdp"));

@@ -16,6 +16,7 @@
 #include "gpisvdb/core/memory_estimate.h"
 #include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/solve/pcg.h"
+#include "gpisvdb/solve/boomer_amg.h"
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/green.h"
 #include "gpisvdb/tasks/hodge.h"

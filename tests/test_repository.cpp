@@ -1,5 +1,6 @@
 // The repository stands alone: what a user clones holds every file its docs, tests and benchmarks name.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <fstream>
@@ -136,4 +137,55 @@ TEST_CASE("repository: bench/run --dry-run names only programs and files that ex
         }
     }
     CHECK(commands >= 10);
+}
+
+TEST_CASE("repository: engine stages include only earlier stages and their own or core's private headers", "[repository]") {
+    // The engine's stages in the order they build on one another (README.md, Layout): a file of one stage may
+    // include public headers (engine/include/gpisvdb/<stage>/) of its own and earlier stages, private headers
+    // (engine/src/<stage>/) of its own stage, and core's private helpers (SIMD lanes, vector math, Morton order).
+    const std::vector<std::string> stages = {"core", "input", "model", "kacrice", "stencil", "band", "ops", "solve", "tasks", "output"};
+    auto rank = [&](const std::string& stage) {
+        const auto it = std::find(stages.begin(), stages.end(), stage);
+        return it == stages.end() ? -1 : int(it - stages.begin());
+    };
+    const std::regex include(R"re(#include\s+"([^"]+)")re");
+    std::vector<std::string> crossings;
+    std::size_t checked = 0;
+    for (const char* root : {"engine/include/gpisvdb", "engine/src"}) {
+        for (const auto& entry : fs::recursive_directory_iterator(kSource / root)) {
+            if (!entry.is_regular_file()) continue;
+            const fs::path rel = fs::relative(entry.path(), kSource / root);
+            const std::string stage = rel.begin()->string();
+            const bool isPrivate = std::string(root) == "engine/src";
+            REQUIRE(rank(stage) >= 0);
+            const std::string text = readAll(entry.path());
+            for (std::sregex_iterator m(text.begin(), text.end(), include), end; m != end; ++m) {
+                std::string target = (*m)[1];
+                std::string targetStage;
+                bool targetPrivate = false;
+                if (target.rfind("gpisvdb/", 0) == 0) {
+                    targetStage = fs::path(target.substr(8)).begin()->string();
+                } else {
+                    // A private header: relative to engine/src ("core/morton.h") or to the file ("../band/x.h", "x.h")
+                    const fs::path beside = (entry.path().parent_path() / target).lexically_normal();
+                    const fs::path fromSrc = kSource / "engine/src" / target;
+                    const fs::path resolved = fs::exists(beside) ? beside : fromSrc;
+                    if (!fs::exists(resolved)) continue;  // a library's header
+                    targetStage = fs::relative(resolved, kSource / "engine/src").begin()->string();
+                    targetPrivate = true;
+                }
+                ++checked;
+                const bool later = rank(targetStage) > rank(stage);
+                const bool foreignPrivate = targetPrivate && targetStage != stage && targetStage != "core";
+                const bool privateFromPublic = targetPrivate && !isPrivate;
+                if (later || foreignPrivate || privateFromPublic)
+                    crossings.push_back(std::string(root) + "/" + rel.string() + " includes " + target);
+            }
+        }
+    }
+    std::string list;
+    for (const auto& c : crossings) list += "\n  " + c;
+    INFO(checked << " includes checked; crossings:" << list);
+    CHECK(checked > 200);  // 276 when written: the scan found the engine's includes
+    CHECK(crossings.empty());
 }

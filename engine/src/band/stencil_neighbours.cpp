@@ -1,9 +1,9 @@
-#include "stencil_neighbours.h"
+#include "gpisvdb/band/stencil_neighbours.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-namespace gpisvdb::detail {
+namespace gpisvdb {
 
 void stencilNeighbours(const Band& band, std::size_t first, std::size_t last, std::vector<std::int32_t>& nb) {
     nb.assign(kStencilSlots * (last - first), -1);
@@ -28,4 +28,4 @@ std::vector<std::int32_t> stencilNeighbours(const Band& band) {
     return nb;
 }
 
-}  // namespace gpisvdb::detail
+}  // namespace gpisvdb

@@ -1,6 +1,7 @@
 #include "gpisvdb/input/gdp.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -119,8 +120,10 @@ InputData readGdp(const std::string& path) {
     data.cloud.emplace();
     PointCloud& c = *data.cloud;
     c.vectorAreas = true;
-    c.positions.reserve(n), c.normals.reserve(n), c.positionVariances.reserve(n), c.areas.reserve(n);
-    c.normalCovariances.reserve(n);
+    // A count is no promise of data: a dipole takes 42 numbers of at least 2 bytes each
+    const std::size_t promised = std::min(n, bytes.size() / 84 + 1);
+    c.positions.reserve(promised), c.normals.reserve(promised), c.positionVariances.reserve(promised);
+    c.areas.reserve(promised), c.normalCovariances.reserve(promised);
     for (std::size_t i = 0; i < n; ++i) {
         const std::string ending = "it declares " + std::to_string(n) + " dipoles (3 + 3 + 36 numbers each) and ends in dipole " +
                                    std::to_string(i + 1);

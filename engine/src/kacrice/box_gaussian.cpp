@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/simd_lanes.h"
 #include "core/vector_math.h"
 
 namespace gpisvdb {
@@ -57,24 +58,16 @@ double boxGaussianDensity(double x, double a, double b, double c, double s) {
     return std::max(0.0, sum / width);
 }
 
-// One clone per instruction set, as the Kac–Rice sums (kac_rice.cpp): the 8 lanes are one AVX-512 register.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_THREAD__)
-#define CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define CLONES
-#endif
-
 namespace {
-#pragma GCC diagnostic ignored "-Wpsabi"  // the lane type never crosses a call
 /// A sum's 8 corners, one lane each: corner k adds ±a/2 (bit 0), ±b/2 (bit 1), ±c/2 (bit 2).
-typedef double Corners __attribute__((vector_size(8 * sizeof(double))));
+using Corners = gpisvdb::simd::Lanes;
 constexpr Corners kSignA = {-1, 1, -1, 1, -1, 1, -1, 1}, kSignB = {-1, -1, 1, 1, -1, -1, 1, 1},
                   kSignC = {-1, -1, -1, -1, 1, 1, 1, 1};
 /// (−1)^(3 − the corner's plus signs): the third divided difference's weights.
 constexpr Corners kDifference = kSignA * kSignB * kSignC;
 }  // namespace
 
-CLONES void boxGaussianDensities(std::size_t n, const double* x, const double* a, const double* b, const double* c,
+GPISVDB_SIMD_CLONES void boxGaussianDensities(std::size_t n, const double* x, const double* a, const double* b, const double* c,
                                  double s, double* out) {
     s = std::abs(s);
     if (!(s > 0)) {

@@ -4,6 +4,8 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
+#include "core/simd_lanes.h"
+
 namespace gpisvdb {
 
 namespace {
@@ -43,21 +45,10 @@ void finish(double norms, const Mat3d& outer, const QmcRule& rule, SurfaceDensit
 }
 
 // === Expectations in SIMD lanes: eight QMC points per step, one partial sum per lane, lanes summed in a fixed
-// order. As in the Barnes–Hut packets (barnes_hut_packet.cpp), one clone per instruction set; the AVX2 and AVX-512
-// clones contract multiply-adds into FMA, so CPUs may differ in the last bits (never thread counts).
-#ifdef GPISVDB_PACKET_CLONES
-#elif defined(__SANITIZE_THREAD__)
-#define GPISVDB_PACKET_CLONES  // one clone: ThreadSanitizer crashes in an ifunc resolver (barnes_hut_packet.cpp)
-#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define GPISVDB_PACKET_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define GPISVDB_PACKET_CLONES
-#endif
-#pragma GCC diagnostic ignored "-Wpsabi"  // the lane type never crosses a call
-
-constexpr int kLanes = 8;
-typedef double Lanes __attribute__((vector_size(kLanes * sizeof(double))));
-typedef unsigned long long ULanes __attribute__((vector_size(kLanes * sizeof(unsigned long long))));
+// order, one clone per instruction set (GPISVDB_SIMD_CLONES, core/simd_lanes.h).
+using simd::kLanes;
+using simd::Lanes;
+using simd::ULanes;
 
 /// sums[0] = Σ‖X‖, sums[1..6] = Σ X Xᵀ/‖X‖ as (xx, yy, zz, xy, xz, yz), over X = m + L q for the rule's points.
 /// kNewton: 1/‖X‖ by Newton's iteration instead of a square root and a division (see qmcSums below).
@@ -112,7 +103,7 @@ inline __attribute__((always_inline)) void qmcSumsBody(const double* m, const do
     }
 }
 
-GPISVDB_PACKET_CLONES void qmcSumsPortable(const double* m, const double (*L)[3], const double* q0, const double* q1,
+GPISVDB_SIMD_CLONES void qmcSumsPortable(const double* m, const double (*L)[3], const double* q0, const double* q1,
                                            const double* q2, const double* weight, std::size_t count, double* sums) {
     qmcSumsBody<false>(m, L, q0, q1, q2, weight, count, sums);
 }

@@ -6,21 +6,15 @@
 #include <cmath>
 #include <vector>
 
+#include "core/simd_lanes.h"
 #include "gpisvdb/kacrice/box_gaussian.h"
 
 namespace gpisvdb {
 
 namespace {
 
-// One clone per instruction set, as the Kac–Rice sums (kac_rice.cpp).
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_THREAD__)
-#define CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define CLONES
-#endif
-
 /// g = m + L q and x = r − βᵀ L q at the rule's points (by coordinate, padded).
-CLONES void gradientSamples(const QmcRule& rule, const double (*L)[3], const double* m, const double* beta, double r,
+GPISVDB_SIMD_CLONES void gradientSamples(const QmcRule& rule, const double (*L)[3], const double* m, const double* beta, double r,
                             double* gx, double* gy, double* gz, double* x) {
     const double *q0 = rule.coordinate(0).data(), *q1 = rule.coordinate(1).data(), *q2 = rule.coordinate(2).data();
     const std::size_t S = rule.weight().size();
@@ -34,7 +28,7 @@ CLONES void gradientSamples(const QmcRule& rule, const double (*L)[3], const dou
 }
 
 /// sums[0] = Σ w ρ ‖g‖, sums[1..6] = Σ w ρ g gᵀ/‖g‖ as (xx, yy, zz, xy, xz, yz), w the rule's weights (0: padding).
-CLONES void weightedMoments(const QmcRule& rule, const double* gx, const double* gy, const double* gz, const double* rho,
+GPISVDB_SIMD_CLONES void weightedMoments(const QmcRule& rule, const double* gx, const double* gy, const double* gz, const double* rho,
                             double* sums) {
     const double* weight = rule.weight().data();
     double acc[7] = {0, 0, 0, 0, 0, 0, 0};

@@ -236,15 +236,15 @@ GPISVDB_LANES_INLINE void sample(const Vec3d& w, double var, const Sym3& N, cons
 
 }  // namespace
 
-// (GPISVDB_PACKET_CLONES, in packet_lanes.h: one clone of the traversal per instruction set.)
+// (GPISVDB_SIMD_CLONES, in core/simd_lanes.h: one clone of the traversal per instruction set.)
 /// The packet traversal, on plain arrays: x[d][l] coordinate d of lane l; out: mean[4][kLanes], cov[4][4][kLanes]
 /// (upper triangle), unnormalised.
 struct PacketTraversal {
     /// From the given roots (the tree's root: evaluate(x)'s nodes; a cell's roots: the rest of its points' nodes).
-    GPISVDB_PACKET_CLONES static void run(const BarnesHutGpis& bh, const BarnesHutGpis::Root* roots, std::size_t rootCount,
+    GPISVDB_SIMD_CLONES static void run(const BarnesHutGpis& bh, const BarnesHutGpis::Root* roots, std::size_t rootCount,
                                           const double (*xs)[kLanes], double (*meanOut)[kLanes], double (*covOut)[4][kLanes]);
     /// The far expansions of the listed nodes (mean, covariance) at every lane, whatever the opening tests say.
-    GPISVDB_PACKET_CLONES static void far(const BarnesHutGpis& bh, const std::uint32_t* meanNodes, std::size_t meanCount,
+    GPISVDB_SIMD_CLONES static void far(const BarnesHutGpis& bh, const std::uint32_t* meanNodes, std::size_t meanCount,
                                           const std::uint32_t* covNodes, std::size_t covCount, const double (*xs)[kLanes],
                                           double (*meanOut)[kLanes], double (*covOut)[4][kLanes]);
 };

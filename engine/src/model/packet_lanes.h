@@ -8,6 +8,7 @@
 #include <immintrin.h>
 #endif
 
+#include "core/simd_lanes.h"
 #include "core/vector_math.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
 
@@ -17,29 +18,13 @@ namespace {
 
 // Helpers are inlined into the traversal so that each of its clones (barnes_hut_packet.cpp) compiles them for its own instruction set.
 #define GPISVDB_LANES_INLINE __attribute__((always_inline)) inline
-#pragma GCC diagnostic ignored "-Wpsabi"  // Lanes never cross a call: every function taking them is inlined
-
-// One clone of the traversal (and of its near field) per instruction set, chosen once at load time (GCC function
-// multi-versioning): the same binary runs everywhere and uses AVX-512 or AVX2 where the CPU has them. The AVX-512 and
-// AVX2 clones contract multiply-adds into FMA (≈ 9 % faster) and erf and exp come from libmvec's variant for the CPU,
-// so results may differ between CPUs in the last bits (as libm's scalar exp already does between CPUs with and without
-// FMA); on one CPU they never depend on the thread count.
-#ifdef GPISVDB_PACKET_CLONES
-// defined by the build (empty: one clone, for comparisons)
-#elif defined(__SANITIZE_THREAD__)
-// ThreadSanitizer instruments the clones' ifunc resolver, which the loader runs before the sanitizer's runtime is
-// set up (the executable crashed at load): one clone there (the same code, at the baseline instruction set).
-#define GPISVDB_PACKET_CLONES
-#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define GPISVDB_PACKET_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define GPISVDB_PACKET_CLONES
-#endif
+// One clone of the traversal (and of its near field) per instruction set: GPISVDB_SIMD_CLONES (core/simd_lanes.h).
 
 constexpr int kLanes = BarnesHutGpis::kPacket;
+static_assert(kLanes == simd::kLanes, "a packet's points are the SIMD lanes");
 // One double per point of the packet. GCC/Clang vector extensions: the compiler maps the 8 lanes to whatever the
 // target has (4 SSE2, 2 AVX or 1 AVX-512 instruction per operation).
-typedef double Lanes __attribute__((vector_size(kLanes * sizeof(double))));
+using Lanes = simd::Lanes;
 using LaneMask = std::uint32_t;  // bit l: lane l
 constexpr LaneMask kAllLanes = (1u << kLanes) - 1;
 

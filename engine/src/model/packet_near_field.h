@@ -254,7 +254,7 @@ GPISVDB_LANES_INLINE void samplePair(const PairLanes& first, const PairLanes& se
 /// time; added to the double sums in world units (the mean's gradient and the covariance's gradient row ×1/s, its
 /// gradient block ×1/s²). Out of line, with clones of its own, so that a profile shows the near field apart from the
 /// traversal (docs/benchmarks.md#near-field-floor); the band is no slower for it (measured there).
-__attribute__((noinline)) GPISVDB_PACKET_CLONES void nearField(const NearKernel& kernel, const std::vector<Vec3d>& position,
+__attribute__((noinline)) GPISVDB_SIMD_CLONES void nearField(const NearKernel& kernel, const std::vector<Vec3d>& position,
                                                                const BarnesHutGpis::NearSample* near, std::uint32_t begin,
                                                                std::uint32_t end, const LaneVec3& x, LaneMask wantMean,
                                                                LaneMask wantCov, LaneSums& sums) {

@@ -8,7 +8,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
-#include "../band/stencil_neighbours.h"
+#include "gpisvdb/band/stencil_neighbours.h"
 #include "gpisvdb/core/errors.h"
 #include "scatter_schedule.h"
 
@@ -28,8 +28,8 @@ Matrix assembleLaplacianAs(const Band& band) {
     const std::size_t n = band.size();
     const double h = band.voxelSize;
     // === Each voxel's stencil neighbours (linear indices, −1 outside the band), in parallel
-    std::vector<std::int32_t> nb = detail::stencilNeighbours(band);
-    auto neighbour = [&](std::size_t i, int slot) { return nb[detail::kStencilSlots * i + std::size_t(slot)]; };
+    std::vector<std::int32_t> nb = stencilNeighbours(band);
+    auto neighbour = [&](std::size_t i, int slot) { return nb[kStencilSlots * i + std::size_t(slot)]; };
 
     // === Off-diagonal contributions per row, duplicates included: an edge i–j adds one to row i and one to row j
     std::vector<std::size_t> start(n + 1, 0);
@@ -161,7 +161,7 @@ double laplacianAssemblyBytes(const LaplacianSize& size, std::size_t scalarBytes
                                                              : sizeof(std::pair<std::int32_t, double>));
     const double contributions = entry * double(size.contributions);
     const double rowStarts = 8.0 * (n + 1);  // std::size_t start, or std::int64_t outer
-    const double emission = 4.0 * detail::kStencilSlots * n + rowStarts + 8.0 * n /* cursor */ + s * n + contributions;
+    const double emission = 4.0 * kStencilSlots * n + rowStarts + 8.0 * n /* cursor */ + s * n + contributions;
     const double merge = 2 * rowStarts + s * n + contributions + assembledLaplacianBytes(size, scalarBytes);
     return std::max(emission, merge);
 }
@@ -183,7 +183,7 @@ struct LaplacianOperator::Schedule {
 
 LaplacianOperator::LaplacianOperator(const Band& band) : band_(band), schedule_(std::make_unique<Schedule>()) {
     schedule_->scatter = detail::makeScatterSchedule(band, detail::stencilReach(band));
-    schedule_->neighbour = detail::stencilNeighbours(band);
+    schedule_->neighbour = stencilNeighbours(band);
     schedule_->sum.assign(band.size(), 0.0);
 }
 
@@ -214,7 +214,7 @@ void scatterLaplacian(const Band& band, const detail::ScatterSchedule& scatter, 
             for (int k = 0; k < st.count; ++k) {
                 const double w = halfH * double(st.weight[std::size_t(k)]);
                 for (int s = 0; s < 2; ++s) {
-                    const std::int32_t j = nb[detail::kStencilSlots * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
+                    const std::int32_t j = nb[kStencilSlots * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
                     if (j < 0) {
                         own += w * ui;
                     } else {
@@ -259,12 +259,14 @@ void LaplacianOperator::diagonal(float* out) const {
                 const float w = halfH * st.weight[std::size_t(k)];
                 for (int s = 0; s < 2; ++s) {
                     out[i] += w;
-                    const std::int32_t j = nb[detail::kStencilSlots * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
+                    const std::int32_t j = nb[kStencilSlots * std::size_t(i) + 2 * std::size_t(k) + std::size_t(s)];
                     if (j >= 0) out[j] += w;
                 }
             }
         }
     });
 }
+
+double laplacianOperatorBytes(std::size_t n) { return (12.0 * 4.0 + 8.0) * double(n); }
 
 }  // namespace gpisvdb

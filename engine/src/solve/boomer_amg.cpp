@@ -279,4 +279,11 @@ std::size_t BoomerAmg::memoryBytes() const {
     return bytes + 2 * impl_->n * sizeof(HYPRE_Real);  // the apply's own b and x
 }
 
+// Measured: the green stage's peak over its baseline, less the operator, the PCG and the right-hand side counted
+// above, 436 bytes per voxel on the bunny (σ_rel 1, h 0.06 and 0.04: 0.77 M and 2.6 M voxels; docs/memory.md): the
+// assembled L while hypre copies it, then hypre's matrix and hierarchy.
+const double kMultigridBytesPerVoxel = 440;
+
+double multigridBytes(std::size_t n) { return kMultigridBytesPerVoxel * double(n); }
+
 }  // namespace gpisvdb

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "gpisvdb/core/errors.h"
-#include "gpisvdb/core/memory_estimate.h"
+#include "gpisvdb/solve/boomer_amg.h"
 #include "gpisvdb/solve/eigen_solver.h"
 
 namespace gpisvdb {

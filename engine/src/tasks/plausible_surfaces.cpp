@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "core/simd_lanes.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/model/kernel.h"
 
@@ -76,13 +77,7 @@ FirstTwo firstTwo(const RegularizedKernel& kernel, double t) {
     return {-E * ir * u + g * u, 3.0 * E * ir * u * u - g * (3.0 * u * u + 2.0 * a2 * u)};
 }
 
-// One clone per instruction set, as the Barnes–Hut packets (model/packet_lanes.h): the sums over the draws are
-// SIMD lanes. Results may differ between CPUs in the last bits, never between thread counts.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_THREAD__)
-#define CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define CLONES
-#endif
+// One clone per instruction set (GPISVDB_SIMD_CLONES, core/simd_lanes.h): the sums over the draws are SIMD lanes.
 
 /// out[k] += Σ_c q[c] · stream_c[k] over `streams` streams of n values each (stream c at values + c · n).
 template <int streams, class T>
@@ -93,8 +88,8 @@ inline void addTerms(const double* q, const T* values, int n, double* out) {
         out[k] += sum;
     }
 }
-CLONES void addNodeTerms(const double* q, const double* moments, int n, double* out) { addTerms<12>(q, moments, n, out); }
-CLONES void addSampleTerms(const double* q, const float* noise, int n, double* out) { addTerms<6>(q, noise, n, out); }
+GPISVDB_SIMD_CLONES void addNodeTerms(const double* q, const double* moments, int n, double* out) { addTerms<12>(q, moments, n, out); }
+GPISVDB_SIMD_CLONES void addSampleTerms(const double* q, const float* noise, int n, double* out) { addTerms<6>(q, noise, n, out); }
 
 struct Node {
     Vec3d centre = Vec3d::Zero();  ///< mean of its samples' positions

@@ -75,4 +75,9 @@ private:
     std::unique_ptr<Schedule> schedule_;
 };
 
+/// Bytes the matrix-free Laplacian (LaplacianOperator) allocates for n band voxels: its neighbour table (12 int32
+/// per voxel) and its per-voxel sums in double, 56 B per voxel; the scatter schedule (a few bytes per leaf) is
+/// below the measurement's resolution and not counted.
+double laplacianOperatorBytes(std::size_t n);
+
 }  // namespace gpisvdb

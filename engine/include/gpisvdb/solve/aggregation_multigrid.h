@@ -72,4 +72,12 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
+/// Peak bytes the aggregation multigrid adds for n band voxels while it is set up
+/// and kept: aggregates, coarse operators (its set-up holds the first coarse level twice), smoother and cycle
+/// vectors; measured per voxel on bunny bands (kAggregationBytesPerVoxel, docs/memory.md).
+double aggregationBytes(std::size_t n);
+
+/// The aggregation multigrid's peak per band voxel (above), measured.
+extern const double kAggregationBytesPerVoxel;
+
 }  // namespace gpisvdb

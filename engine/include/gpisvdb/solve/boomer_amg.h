@@ -59,4 +59,12 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
+/// Peak bytes the multigrid preconditioner adds for n unknowns of the band Laplacian while it is
+/// set up and kept: the assembled L (float), hypre's copy of it and the hierarchy; measured per voxel on bunny bands
+/// (kMultigridBytesPerVoxel, docs/memory.md).
+double multigridBytes(std::size_t n);
+
+/// The multigrid's peak per unknown (above), measured.
+extern const double kMultigridBytesPerVoxel;
+
 }  // namespace gpisvdb

@@ -67,4 +67,14 @@ FastMarchingResult fastMarching(const Band& band, const std::vector<std::size_t>
                                 const std::vector<std::size_t>& targets = {}, const FastMarchingOptions& options = {},
                                 const Progress& progress = {});
 
+/// The bytes a fast march over n band voxels allocates beside the band: the reverse-stencil table (4 B per entry,
+/// `entries` of them: the stencil terms that stay in the band, ≤ 12 n; 4 B per voxel of offsets), U, the slot map
+/// and the target flags (FastMarching::kMarchBytesPerVoxel), and the pool of touched voxels, `frontShare` n of
+/// them at FastMarching::kTouchedBytes, the vectors' growth by doubling included.
+double fastMarchingBytes(std::size_t n, std::size_t entries, double frontShare);
+
+/// The share of a band's voxels a march holds in its pool at once, bound from measurements (docs/memory.md): the
+/// front of a march is a surface of the accepted region, so the share falls with the band's size.
+double fastMarchingFrontShare(std::size_t n);
+
 }  // namespace gpisvdb

@@ -34,7 +34,7 @@ int lobpcgBlockSize(int count, const LobpcgOptions& options, double n);
 
 /// Bytes LOBPCG needs beyond L and M for k pairs on N unknowns: its three N × m blocks in double, the V-cycle's output
 /// (N doubles), each thread's chunk of products (5 m columns of 2048 rows, two partial sums) and the multigrid's hierarchy
-/// (kMultigridBytesPerVoxel, measured).
+/// (kMultigridBytesPerVoxel, solve/boomer_amg.h, measured).
 double lobpcgBytes(double n, int count, const LobpcgOptions& options);
 
 /// Fills values, vectors (M-orthonormal, ascending), iterations and the multigrid fields of `result`; the caller

@@ -131,4 +131,22 @@ PcgResult solvePcg(const SymmetricOperator& A, const std::vector<double>& b, std
 PcgResult solvePcg(const SparseMatrixF& A, const std::vector<float>& b, std::vector<float>& x,
                    const PcgOptions& options = {}, const Progress& progress = {});
 
+/// Bytes a PcgSolver allocates for n unknowns with these options, Jacobi preconditioned: r, z, p,
+/// A p and the inverse diagonal in float (20 B per unknown), plus the refinement's residual in double, its inner
+/// right-hand side and solution in float and the solution in double (24 B) when the tolerance is below what
+/// float reaches (kFloatPcgReach) or refinement is Always. With Refinement::Automatic above kFloatPcgReach a float
+/// solve that stalls refines too, and then allocates those 24 B after all: not counted, since it is the exception
+/// (`includeFallback` counts it). Other preconditioners' own memory (IC's factor, a multigrid hierarchy) is not
+/// counted here.
+double pcgWorkBytes(std::size_t n, const PcgOptions& options, bool includeFallback = false);
+
+/// Peak bytes the incomplete Cholesky preconditioner adds for n unknowns of the band Laplacian while
+/// it is set up and kept: the assembled L (float CSR), Eigen's column-major copy, its permuted lower triangle,
+/// AMD ordering and column lists, and the factor; measured per voxel on bunny bands
+/// (kIncompleteCholeskyBytesPerVoxel, docs/memory.md#incomplete-cholesky).
+double incompleteCholeskyBytes(std::size_t n);
+
+/// The incomplete Cholesky's peak per unknown (above), measured.
+extern const double kIncompleteCholeskyBytesPerVoxel;
+
 }  // namespace gpisvdb
