@@ -288,9 +288,9 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
         {"hodge " + bunny + " --field /nonexistent.vdb -o " + vdb + " --voxel-size 0.4 --sigma 2", "no such file"},
         {"hodge " + bunny + " --field " + temp("notvdb.vdb", "hello") + " -o " + vdb + " --voxel-size 0.4 --sigma 2",
          "cannot be read as an OpenVDB file"},
-        {"hodge " + bunny + " --preset mixed --tolerance -1 -o " + vdb, "--tolerance must be a finite number > 0"},
-        {"green " + bunny + " --source 0,6,0 --tolerance 0 -o " + vdb, "--tolerance must be a finite number > 0"},
-        {"green " + bunny + " --source 0,6,0 --tolerance 1e-13 -o " + vdb, "--tolerance must be >= 1e-12"},
+        {"hodge " + bunny + " --preset mixed --tolerance -1 -o " + vdb, "the PCG tolerance (--tolerance) must be finite and > 0"},
+        {"green " + bunny + " --source 0,6,0 --tolerance 0 -o " + vdb, "the PCG tolerance (--tolerance) must be finite and > 0"},
+        {"green " + bunny + " --source 0,6,0 --tolerance 1e-13 -o " + vdb, "the PCG tolerance (--tolerance) must be >= 1e-12"},
         {"render " + vdb + " --grid mu -o " + temp("flag.png") + " --slice w=1", "slice plane (--slice): expected axis=value"},
         // Absurd requests, refused before any attempt (docs/guide.md#limits)
         {"evaluate " + temp("huge.off", "OFF\n1000000000 1 0\n0 0 0\n") + " --at " + pts + " -o " + out,

@@ -143,7 +143,7 @@ TEST_CASE("repository: engine stages include only earlier stages and their own o
     // The engine's stages in the order they build on one another (README.md, Layout): a file of one stage may
     // include public headers (engine/include/gpisvdb/<stage>/) of its own and earlier stages, private headers
     // (engine/src/<stage>/) of its own stage, and core's private helpers (SIMD lanes, vector math, Morton order).
-    const std::vector<std::string> stages = {"core", "input", "model", "kacrice", "stencil", "band", "ops", "solve", "tasks", "output"};
+    const std::vector<std::string> stages = {"core", "input", "model", "kacrice", "stencil", "band", "ops", "solve", "tasks", "output", "app"};
     auto rank = [&](const std::string& stage) {
         const auto it = std::find(stages.begin(), stages.end(), stage);
         return it == stages.end() ? -1 : int(it - stages.begin());

@@ -36,7 +36,7 @@ void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             mpi::together(ranks, [&] {
                 if (a->source.size() != 3 || !Vec3d(a->source[0], a->source[1], a->source[2]).allFinite())
                     throw ParameterError("--source needs three finite numbers X,Y,Z");
-                checkSolverFlags(a->solver);
+                checkPcgOptions(a->solver);
             });
             MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
             const BandJob& job = run.job;

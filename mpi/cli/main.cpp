@@ -49,19 +49,7 @@ int run(int argc, char** argv, const gpisvdb::mpi::Ranks& ranks) {
         std::cerr << "gpisvdb-mpi: rank " << ranks.rank << ": " << message << std::endl;
         MPI_Abort(ranks.comm, 1);  // the other ranks may wait in a collective for this one
     };
-    try {
-        action();
-    } catch (const Cancelled&) {
-        fail("interrupted, no output written");
-        return 128 + (cli::interruptSignal() ? cli::interruptSignal() : SIGINT);
-    } catch (const Error& e) {
-        fail("error: " + cli::errorMessage(e));
-        return 1;
-    } catch (const std::exception& e) {
-        fail(std::string("internal error: ") + e.what());
-        return 1;
-    }
-    return 0;
+    return cli::runCommand(action, [&](const std::string& message, bool) { fail(message); });
 }
 
 }  // namespace

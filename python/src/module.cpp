@@ -17,6 +17,8 @@
 #include <vector>
 
 #include "arrays.h"
+#include "gpisvdb/app/band_metadata.h"
+#include "gpisvdb/app/parameter_names.h"
 #include "gpisvdb/band/default_band.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/read_input.h"
@@ -57,57 +59,7 @@ PyObject* gParameterError = nullptr;
 PyObject* gMemoryLimitError = nullptr;
 PyObject* gOutputError = nullptr;
 
-/// The engine names a parameter by its Options field (core/errors.h); Python users know the keyword.
-std::string pythonMessage(const Error& error) {
-    static const std::map<std::string, std::string> kKeywords = {
-        {"BandOptions::voxelSize", "voxel_size"},
-        {"BandOptions::etaRelative", "eta"},
-        {"BandOptions::iso", "iso"},
-        {"BandOptions::qmcSamples", "qmc"},
-        {"BandOptions::maxAnisotropy", "max_anisotropy"},
-        {"BandOptions::maxVoxels", "max_memory"},
-        {"DefaultBandOptions::maxMemory", "max_memory"},
-        {"DefaultBandOptions::maxBandVoxels", "max_voxels"},
-        {"ResolutionOptions::resolutionScale", "resolution_scale"},
-        {"ResolutionOptions::maxAnisotropy", "max_anisotropy"},
-        {"NoiseOptions::sigmaRel", "sigma"},
-        {"CloudNoiseOptions::sigmaRel", "sigma"},
-        {"SoupNoiseOptions::sigmaRel", "sigma"},
-        {"ModelOptions::smoothingRel", "smoothing"},
-        {"ModelOptions::noiseSmoothing", "noise_smoothing"},
-        {"BarnesHutOptions::beta", "beta"},
-        {"TrainingOptions::surfacePoints", "training_points"},
-        {"TrainingOptions::offsetRelative", "training_offset"},
-        {"RegressionGpisOptions::labelNoise", "label_noise"},
-        {"RegressionGpisOptions::amplitude", "amplitude"},
-        {"PcgOptions::tolerance", "tolerance"},
-        {"PcgOptions::maxIterations", "max_iterations"},
-        {"EigenOptions::count", "k"},
-        {"EigenOptions::subspace", "subspace"},
-        {"EigenOptions::tolerance", "eigen_tolerance"},
-        {"EigenOptions::maxRestarts", "max_restarts"},
-        {"EigenOptions::maxBytes", "max_memory"},
-        {"MaternOptions::nu", "nu"},
-        {"MaternOptions::kappa", "kappa"},
-        {"MaternOptions::amplitude", "amplitude"},
-        {"SmoothedDistanceOptions::alpha", "alpha"},
-        {"SmoothedDistanceOptions::gridVoxelSize", "grid_voxel_size"},
-        {"SmoothedDistanceOptions::padding", "padding"},
-        {"SmoothedDistanceOptions::tolerance", "tolerance"},
-        {"SmoothedDistanceOptions::maxBytes", "max_memory"},
-        {"GeodesicOptions::maxBytes", "max_memory"},
-        {"VdbWriteOptions::halfFloat", "half"},
-        {"VdbWriteOptions::occupancyName", "fog_name"},
-    };
-    std::string text = error.what();
-    for (const std::string& field : error.parameters()) {
-        const auto kw = kKeywords.find(field);
-        if (kw == kKeywords.end()) continue;
-        for (std::size_t at = text.find(field); at != std::string::npos; at = text.find(field, at + kw->second.size()))
-            text.replace(at, field.size(), kw->second);
-    }
-    return text;
-}
+std::string pythonMessage(const Error& error) { return app::frontEndMessage(error, app::FrontEnd::Python); }
 
 void translateErrors(std::exception_ptr p) {
     try {
@@ -418,39 +370,10 @@ py::dict bandReport(const PyBand& b) {
                     "timings_s"_a = py::dict("band"_a = b.seconds));
 }
 
-/// File metadata, as the command line writes it (docs/band.md, "The .vdb file"); `mesh` reads 'iso'.
-openvdb::MetaMap bandMetadata(const PyBand& b, bool half, const std::string& fogName) {
-    openvdb::MetaMap meta;
-    const InputSamples& in = b.model->input;
-    const ModelOptions& mo = b.modelOptions;
-    meta.insertMeta("gpisvdb_version", openvdb::StringMetadata(GPISVDB_VERSION));
-    meta.insertMeta("command_line", openvdb::StringMetadata("python: gpisvdb.band"));
-    meta.insertMeta("input", openvdb::StringMetadata(b.source));
-    meta.insertMeta("input_samples", openvdb::Int64Metadata(openvdb::Int64(in.samples.size())));
-    meta.insertMeta("length_scale", openvdb::DoubleMetadata(in.samples.lengthScale));
-    meta.insertMeta("sigma_rel", openvdb::DoubleMetadata(mo.sigmaRel));
-    meta.insertMeta("sigma", openvdb::DoubleMetadata(in.sigma));
-    meta.insertMeta("smoothing_rel", openvdb::DoubleMetadata(mo.smoothingRel));
-    meta.insertMeta("smoothing", openvdb::DoubleMetadata(b.model->smoothing));
-    meta.insertMeta("smoothing_set_by", openvdb::StringMetadata(smoothingSourceName(b.model->smoothingSource)));
-    meta.insertMeta("model", openvdb::StringMetadata(mo.kind == ModelKind::Regression ? "regression" : "winding"));
-    meta.insertMeta("iso", openvdb::DoubleMetadata(b.built.options.iso));
-    meta.insertMeta("eta_rel", openvdb::DoubleMetadata(b.built.options.etaRelative));
-    meta.insertMeta("eta", openvdb::DoubleMetadata(b.built.result.stats.etaAbsolute));
-    meta.insertMeta("voxel_size", openvdb::DoubleMetadata(b.built.options.voxelSize));
-    meta.insertMeta("h_star", openvdb::DoubleMetadata(b.built.resolution.hStar));
-    meta.insertMeta("mu_width", openvdb::DoubleMetadata(b.built.resolution.muWidth));
-    meta.insertMeta("voxel_values", openvdb::StringMetadata(b.built.options.voxelValues ? "voxel" : "point"));
-    meta.insertMeta("voxel_size_set_by_budget", openvdb::BoolMetadata(b.built.budgeted));
-    meta.insertMeta("qmc_samples", openvdb::Int32Metadata(b.built.options.qmcSamples));
-    meta.insertMeta("beta", openvdb::DoubleMetadata(mo.barnesHut.beta));
-    meta.insertMeta("exact", openvdb::BoolMetadata(mo.exact));
-    meta.insertMeta("max_anisotropy", openvdb::DoubleMetadata(b.built.options.maxAnisotropy));
-    meta.insertMeta("band_voxels", openvdb::Int64Metadata(openvdb::Int64(b.band().size())));
-    meta.insertMeta("band_mass", openvdb::DoubleMetadata(b.band().mass()));
-    meta.insertMeta("half_float", openvdb::BoolMetadata(half));
-    meta.insertMeta("occupancy_grid", openvdb::StringMetadata(fogName));
-    return meta;
+/// File metadata, as the command line writes it (app/band_metadata.h); `mesh` reads 'iso'.
+openvdb::MetaMap bandMetadata(const PyBand& b, const VdbWriteOptions& vdb) {
+    return app::bandMetadata({"python: gpisvdb.band", b.source, ""}, b.modelOptions, *b.model, b.built.options,
+                             b.built.resolution, b.built.budgeted, b.built.result, vdb);
 }
 
 /// Writes under a temporary name beside `path` and renames it into place, so that an error or a Ctrl-C leaves
@@ -503,7 +426,7 @@ void writeBand(const PyBand& b, const std::string& path, bool half, bool stencil
     vo.sellingStencils = stencils;
     vo.occupancyName = fogName;
     vo.nanoVdb = nanovdb || isNanoVdbPath(path);
-    const openvdb::MetaMap meta = bandMetadata(b, half, fogName);
+    const openvdb::MetaMap meta = bandMetadata(b, vo);
     writeAtomically(path, [&](const std::string& temp) { writeBandVdb(b.band(), temp, meta, extra, vec, vo); }, threads);
 }
 
@@ -520,8 +443,7 @@ PcgOptions pcgOptions(double tolerance, int maxIterations, const std::string& pr
     else if (preconditioner == "jacobi") o.preconditioner = Preconditioner::Jacobi;
     else if (preconditioner == "ic") o.preconditioner = Preconditioner::IncompleteCholesky;
     else throw ParameterError("preconditioner must be 'auto', 'aggregation', 'multigrid', 'jacobi' or 'ic', got '" + preconditioner + "'");
-    if (!(tolerance > 0) || !std::isfinite(tolerance)) throw ParameterError("tolerance must be finite and > 0");
-    if (maxIterations < 1) throw ParameterError("max_iterations must be >= 1");
+    checkPcgOptions(o);
     return o;
 }
 
@@ -866,7 +788,7 @@ Example:
                  const ModelOptions o = modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
                  return makeModel(soupInput(V, F), o, threads);
              }),
-             "V"_a, "F"_a, py::kw_only(), "sigma"_a = 0.5, "smoothing"_a = 0.4, "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+             "V"_a, "F"_a, py::kw_only(), "sigma"_a = kDefaultSigmaRel, "smoothing"_a = kDefaultSmoothingRel, "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
              "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
              "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
              "threads"_a = 0)
@@ -881,7 +803,7 @@ Example:
                 const ModelOptions o = modelOptions(rel, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
                 return makeModel(cloudInput(P, N, perPoint, area), o, threads);
             },
-            "P"_a, "N"_a, py::kw_only(), "sigma"_a = py::none(), "area"_a = py::none(), "smoothing"_a = 0.4, "noise_smoothing"_a = kNoiseSmoothing,
+            "P"_a, "N"_a, py::kw_only(), "sigma"_a = py::none(), "area"_a = py::none(), "smoothing"_a = kDefaultSmoothingRel, "noise_smoothing"_a = kNoiseSmoothing,
             "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding", "labels"_a = py::none(),
             "training_points"_a = TrainingOptions{}.surfacePoints, "training_offset"_a = TrainingOptions{}.offsetRelative,
             "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0,
@@ -904,7 +826,7 @@ The other keywords as for Model(V, F, ...).)doc")
                 }
                 return makeModel(std::move(data), o, threads);
             },
-            "path"_a, py::kw_only(), "sigma"_a = 0.5, "smoothing"_a = 0.4, "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+            "path"_a, py::kw_only(), "sigma"_a = kDefaultSigmaRel, "smoothing"_a = kDefaultSmoothingRel, "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
             "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
             "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
             "threads"_a = 0,

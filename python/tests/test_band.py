@@ -88,6 +88,24 @@ def test_write_vdb_is_read_back_by_pyopenvdb_and_equals_the_command_line_file(ba
     mu_grid = pyopenvdb.read(str(ours), "mu")
     assert mu_grid.activeVoxelCount() == len(band)
     assert mu_grid.transform.voxelSize()[0] == pytest.approx(VOXEL)
+    # One metadata writer for both front ends (app/band_metadata.h): the same keys and values but the command's
+    cli_meta = pyopenvdb.readAll(str(theirs))[1]
+    provenance = {"command_line", "input"}
+    assert {k: v for k, v in meta.items() if k not in provenance} == {
+        k: v for k, v in cli_meta.items() if k not in provenance}
+    assert meta["command_line"] == "python: gpisvdb.band"
+
+
+def test_write_vdb_records_the_regression_model(sphere, tmp_path):
+    V, F = sphere
+    labels = np.vstack([np.c_[V, np.zeros(len(V))], np.c_[0.7 * V, np.ones(len(V))], np.c_[1.3 * V, -np.ones(len(V))]])
+    m = gpisvdb.Model(V, F, model="regression", labels=labels, label_noise=0.02)
+    gpisvdb.band(m, voxel_size=VOXEL).write_vdb(str(tmp_path / "regression.vdb"))
+    import pyopenvdb
+    meta = pyopenvdb.readAll(str(tmp_path / "regression.vdb"))[1]
+    assert meta["model"] == "regression"
+    assert meta["training_labels"] == len(labels) and meta["label_noise"] == pytest.approx(0.02)
+    assert "labels" not in meta  # given as an array, not a file
 
 
 def test_write_vdb_names_the_occupancy_and_writes_nanovdb(band, tmp_path):

@@ -11,6 +11,7 @@
 #include <iostream>
 #include <map>
 
+#include "gpisvdb/app/band_metadata.h"
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb::cli {
@@ -88,6 +89,8 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     const DefaultBandOptions options = defaultBandOptions(flags);
     const ModelOptions mo = modelOptions(flags.model);
     job.model = loadModel(data, mo);
+    job.modelOptions = mo;
+    job.modelOptions.labels.reset();  // the model holds them; the job keeps the settings
     job.secondsModel = since(start);
     const auto tBand = Clock::now();
     const DefaultBandPlan plan = planDefaultBandFor(job.model, mo, options, progress);
@@ -168,15 +171,6 @@ void addSolverFlags(CLI::App& cmd, PcgOptions& o, SolverFlags which) {
         ->transform(CLI::CheckedTransformer(names));
 }
 
-void checkSolverFlags(const PcgOptions& options) {
-    if (!(options.tolerance > 0) || !std::isfinite(options.tolerance))
-        throw ParameterError("--tolerance must be a finite number > 0 (a relative residual, e.g. 1e-6)");
-    if (options.tolerance < kMinPcgTolerance)
-        throw ParameterError("--tolerance must be >= " + numberText(kMinPcgTolerance) +
-                             ": below it double precision's rounding of the residual decides, not the solver");
-    if (options.maxIterations < 1) throw ParameterError("--max-iterations must be >= 1");
-}
-
 void requireConverged(const PcgResult& r, const PcgOptions& options) {
     if (r.converged) return;
     const std::string at = "the PCG stopped at relative residual " + numberText(r.relativeResidual) + " after " +
@@ -224,41 +218,8 @@ std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, 
 }
 
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
-    openvdb::MetaMap meta;
-    const auto& in = job.model.input;
-    meta.insertMeta("gpisvdb_version", openvdb::StringMetadata(GPISVDB_VERSION));
-    meta.insertMeta("command_line", openvdb::StringMetadata(commandLine()));
-    meta.insertMeta("input", openvdb::StringMetadata(job.inputPath));
-    meta.insertMeta("input_samples", openvdb::Int64Metadata(openvdb::Int64(in.samples.size())));
-    meta.insertMeta("length_scale", openvdb::DoubleMetadata(in.samples.lengthScale));
-    meta.insertMeta("sigma_rel", openvdb::DoubleMetadata(flags.model.sigmaRel));
-    meta.insertMeta("sigma", openvdb::DoubleMetadata(in.sigma));
-    meta.insertMeta("smoothing_rel", openvdb::DoubleMetadata(flags.model.smoothingRel));
-    meta.insertMeta("smoothing", openvdb::DoubleMetadata(job.model.smoothing));
-    meta.insertMeta("smoothing_set_by", openvdb::StringMetadata(smoothingSourceName(job.model.smoothingSource)));
-    meta.insertMeta("model", openvdb::StringMetadata(flags.model.model));
-    if (job.model.trainingSize) {
-        meta.insertMeta("training_labels", openvdb::Int64Metadata(openvdb::Int64(job.model.trainingSize)));
-        meta.insertMeta("label_noise", openvdb::DoubleMetadata(flags.model.labelNoise));
-        if (!flags.model.labels.empty()) meta.insertMeta("labels", openvdb::StringMetadata(flags.model.labels));
-    }
-    meta.insertMeta("iso", openvdb::DoubleMetadata(job.options.iso));
-    meta.insertMeta("eta_rel", openvdb::DoubleMetadata(job.options.etaRelative));
-    meta.insertMeta("eta", openvdb::DoubleMetadata(job.result.stats.etaAbsolute));
-    meta.insertMeta("voxel_size", openvdb::DoubleMetadata(job.options.voxelSize));
-    meta.insertMeta("h_star", openvdb::DoubleMetadata(job.resolution.hStar));
-    meta.insertMeta("mu_width", openvdb::DoubleMetadata(job.resolution.muWidth));
-    meta.insertMeta("voxel_values", openvdb::StringMetadata(job.options.voxelValues ? "voxel" : "point"));
-    meta.insertMeta("voxel_size_set_by_budget", openvdb::BoolMetadata(job.budgeted));
-    meta.insertMeta("qmc_samples", openvdb::Int32Metadata(job.options.qmcSamples));
-    meta.insertMeta("beta", openvdb::DoubleMetadata(flags.model.beta));
-    meta.insertMeta("exact", openvdb::BoolMetadata(flags.model.exact));
-    meta.insertMeta("max_anisotropy", openvdb::DoubleMetadata(job.options.maxAnisotropy));
-    meta.insertMeta("band_voxels", openvdb::Int64Metadata(openvdb::Int64(job.result.band.size())));
-    meta.insertMeta("band_mass", openvdb::DoubleMetadata(job.result.band.mass()));
-    meta.insertMeta("half_float", openvdb::BoolMetadata(flags.vdb.halfFloat));
-    meta.insertMeta("occupancy_grid", openvdb::StringMetadata(flags.vdb.occupancyName));
-    return meta;
+    return app::bandMetadata({commandLine(), job.inputPath, flags.model.labels}, job.modelOptions, job.model, job.options,
+                             job.resolution, job.budgeted, job.result, flags.vdb);
 }
 
 void addGreenMetadata(openvdb::MetaMap& meta, const Vec3d& source, const openvdb::Coord& y, const PcgResult& solve) {

@@ -34,6 +34,7 @@ void addBandFlags(CLI::App& cmd, BandFlags& flags);
 struct BandJob {
     std::string inputPath;
     LoadedModel model;
+    ModelOptions modelOptions;  ///< the model's settings as asked (labels left out: the model holds them)
     Resolution resolution;
     BandOptions options;  ///< as used (voxel size resolved)
     BandResult result;
@@ -89,8 +90,6 @@ enum class SolverFlags {
 /// --tolerance, --max-iterations and (per `which`) --preconditioner, into `options`.
 void addSolverFlags(CLI::App& cmd, PcgOptions& options, SolverFlags which);
 
-/// Throws a ParameterError for --tolerance outside [kMinPcgTolerance, ∞) or --max-iterations < 1.
-void checkSolverFlags(const PcgOptions& options);
 
 /// Throws an Error naming the flag to change when a PCG solve stopped short of its tolerance.
 void requireConverged(const PcgResult& result, const PcgOptions& options);

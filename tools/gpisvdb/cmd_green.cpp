@@ -42,7 +42,7 @@ void addGreen(CLI::App& app, Action& action) {
             const auto threads = limitThreads(a->flags.model.threads);
             if (a->source.size() != 3 || !Vec3d(a->source[0], a->source[1], a->source[2]).allFinite())
                 throw ParameterError("--source needs three finite numbers X,Y,Z");
-            checkSolverFlags(a->solver);
+            checkPcgOptions(a->solver);
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
             const BandJob& job = run.job;
             Band& band = run.job.result.band;

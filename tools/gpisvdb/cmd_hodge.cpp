@@ -64,7 +64,7 @@ void addHodge(CLI::App& app, Action& action) {
             const auto start = Clock::now();
             const auto threads = limitThreads(a->flags.model.threads);
             if (a->field.empty() == a->preset.empty()) throw ParameterError("give exactly one of --field FILE.vdb[:GRID] and --preset rotation|gradient|mixed");
-            checkSolverFlags(a->solver);
+            checkPcgOptions(a->solver);
             BandCommand run = startBandCommand(a->input, a->output, a->flags);
             const BandJob& job = run.job;
             const Band& band = job.result.band;

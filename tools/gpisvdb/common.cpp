@@ -16,7 +16,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <random>
@@ -25,6 +24,7 @@
 #include <thread>
 #include <tbb/global_control.h>
 
+#include "gpisvdb/app/parameter_names.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/output/temporary_path.h"
 
@@ -194,64 +194,22 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
     app.add_flag("--quiet", f.quiet, "no progress bar");
 }
 
-std::string errorMessage(const Error& error) {
-    // One table: the engine's Options fields (as its messages name them) and the flags that set them.
-    static const std::map<std::string, std::string> kFlags = {
-        {"BandOptions::voxelSize", "--voxel-size"},
-        {"BandOptions::etaRelative", "--eta"},
-        {"BandOptions::iso", "--iso"},
-        {"BandOptions::qmcSamples", "--qmc"},
-        {"BandOptions::maxAnisotropy", "--max-anisotropy"},
-        {"BandOptions::maxVoxels", "--max-memory"},
-        {"ResolutionOptions::resolutionScale", "--resolution-scale"},
-        {"ResolutionOptions::maxAnisotropy", "--max-anisotropy"},
-        {"NoiseOptions::sigmaRel", "--sigma"},
-        {"ModelOptions::smoothingRel", "--smoothing"},
-        {"ModelOptions::noiseSmoothing", "--noise-smoothing"},
-        {"DefaultBandOptions::maxMemory", "--max-memory"},
-        {"DefaultBandOptions::maxBandVoxels", "--max-voxels"},
-        {"CloudNoiseOptions::sigmaRel", "--sigma"},
-        {"SoupNoiseOptions::sigmaRel", "--sigma"},
-        {"BarnesHutOptions::beta", "--beta"},
-        {"TrainingOptions::surfacePoints", "--training-points"},
-        {"TrainingOptions::offsetRelative", "--training-offset"},
-        {"RegressionGpisOptions::labelNoise", "--label-noise"},
-        {"PcgOptions::tolerance", "--tolerance"},
-        {"PcgOptions::maxIterations", "--max-iterations"},
-        {"EigenOptions::count", "-k"},
-        {"EigenOptions::subspace", "--subspace"},
-        {"EigenOptions::tolerance", "--eigen-tolerance"},
-        {"EigenOptions::maxRestarts", "--max-restarts"},
-        {"EigenOptions::maxBytes", "--max-memory"},
-        {"MaternOptions::nu", "--nu"},
-        {"MaternOptions::kappa", "--kappa"},
-        {"MaternOptions::amplitude", "--amplitude"},
-        {"SmoothedDistanceOptions::alpha", "--alpha"},
-        {"SmoothedDistanceOptions::gridVoxelSize", "--grid-voxel-size"},
-        {"SmoothedDistanceOptions::padding", "--padding"},
-        {"SmoothedDistanceOptions::tolerance", "--distance-tolerance"},
-        {"SmoothedDistanceOptions::maxBytes", "--max-memory"},
-        {"GeodesicOptions::maxBytes", "--max-memory"},
-        {"VdbWriteOptions::halfFloat", "--half"},
-        {"VdbWriteOptions::occupancyName", "--fog-name"},
-        {"RenderPanel::logScale", "--log"},
-        {"RenderPanel::slice", "--slice"},
-    };
-    std::string text = error.what();
-    std::vector<std::string> appended;
-    for (const std::string& field : error.parameters()) {
-        const auto flag = kFlags.find(field);
-        if (flag == kFlags.end()) continue;
-        bool found = false;
-        for (std::size_t at = text.find(field); at != std::string::npos; at = text.find(field, at + flag->second.size())) {
-            text.replace(at, field.size(), flag->second);
-            found = true;
-        }
-        if (!found && std::find(appended.begin(), appended.end(), flag->second) == appended.end()) appended.push_back(flag->second);
+std::string errorMessage(const Error& error) { return app::frontEndMessage(error, app::FrontEnd::CommandLine); }
+
+int runCommand(const std::function<void()>& action, const std::function<void(const std::string& message, bool interrupted)>& report) {
+    try {
+        action();
+    } catch (const Cancelled&) {
+        report("interrupted, no output written", true);
+        return 128 + (interruptSignal() ? interruptSignal() : SIGINT);
+    } catch (const Error& e) {
+        report("error: " + errorMessage(e), false);
+        return 1;
+    } catch (const std::exception& e) {
+        report(std::string("internal error: ") + e.what(), false);
+        return 1;
     }
-    for (std::size_t i = 0; i < appended.size(); ++i) text += (i ? ", " : " (") + appended[i];
-    if (!appended.empty()) text += ")";
-    return text;
+    return 0;
 }
 
 std::shared_ptr<void> limitThreads(int threads) {

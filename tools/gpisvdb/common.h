@@ -1,6 +1,7 @@
 #pragma once
 // Shared pieces of the command line: model flags, outputs written atomically, progress and Ctrl-C.
 #include <CLI/CLI.hpp>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -14,8 +15,8 @@ namespace gpisvdb::cli {
 
 /// Flags every subcommand that builds a GPIS shares (same names and meanings everywhere).
 struct ModelFlags {
-    double sigmaRel = 0.5;      ///< --sigma: vertex/point noise std relative to ℓ
-    double smoothingRel = 0.4;  ///< --smoothing: kernel smoothing s relative to ℓ
+    double sigmaRel = kDefaultSigmaRel;  ///< --sigma: vertex/point noise std relative to ℓ
+    double smoothingRel = kDefaultSmoothingRel;  ///< --smoothing: kernel smoothing s relative to ℓ
     double noiseSmoothing = kNoiseSmoothing;  ///< --noise-smoothing: s at least this × the median position std
     double beta = BarnesHutOptions{}.beta;  ///< --beta: Barnes–Hut opening criterion
     bool exact = false;         ///< --exact: direct O(n) sums instead of Barnes–Hut
@@ -80,6 +81,11 @@ std::string& commandLine();
 /// "BandOptions::voxelSize") replaced by the flag that sets it ("--voxel-size"), or the flag appended in
 /// parentheses when the message does not spell the field; fields without a flag are left as they are.
 std::string errorMessage(const Error& error);
+
+/// Runs a parsed command: an exception becomes one message for `report` ("error: …" in the command line's names,
+/// "interrupted, no output written" with interrupted = true, or "internal error: …"), and the exit code main
+/// returns (0; 1 for an error; 128 + the signal for an interrupt). report removes the outputs and prints.
+int runCommand(const std::function<void()>& action, const std::function<void(const std::string& message, bool interrupted)>& report);
 
 /// Sets up Ctrl-C and SIGTERM handling; call first in main, before any thread starts (they inherit the blocked
 /// signals). SIGINT and SIGTERM set a flag the Progress polls; a watchdog thread ends the process kInterruptGraceMs

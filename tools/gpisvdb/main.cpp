@@ -44,20 +44,11 @@ int main(int argc, char** argv) {
         app.exit(e);
         return 2;
     }
-    try {
-        action();
-    } catch (const Cancelled&) {
-        cli::removeCommittedOutputs();
-        cli::reportInterrupted("gpisvdb: interrupted, no output written\n");
-        return 128 + (cli::interruptSignal() ? cli::interruptSignal() : SIGINT);
-    } catch (const Error& e) {
+    return cli::runCommand(action, [](const std::string& message, bool interrupted) {
         cli::removeCommittedOutputs();  // all of a command's outputs or none
-        std::cerr << "gpisvdb: error: " << cli::errorMessage(e) << "\n";
-        return 1;
-    } catch (const std::exception& e) {
-        cli::removeCommittedOutputs();
-        std::cerr << "gpisvdb: internal error: " << e.what() << "\n";
-        return 1;
-    }
-    return 0;
+        if (interrupted)
+            cli::reportInterrupted("gpisvdb: " + message + "\n");
+        else
+            std::cerr << "gpisvdb: " << message << "\n";
+    });
 }

@@ -269,13 +269,19 @@ Preconditioner resolvePreconditioner(Preconditioner requested, const SymmetricOp
     return resolvePreconditioner(requested, A.size(), A.assemblable(), dynamic_cast<const LaplacianOperator*>(&A) != nullptr);
 }
 
-PcgSolver::PcgSolver(const SymmetricOperator& A, const PcgOptions& o) {
-    if (!(o.tolerance > 0) || !std::isfinite(o.tolerance)) throw ParameterError("the PCG tolerance (PcgOptions::tolerance) must be finite and > 0", {"PcgOptions::tolerance"});
+void checkPcgOptions(const PcgOptions& o) {
+    if (!(o.tolerance > 0) || !std::isfinite(o.tolerance))
+        throw ParameterError("the PCG tolerance (PcgOptions::tolerance) must be finite and > 0 (a relative residual, e.g. 1e-6)",
+                             {"PcgOptions::tolerance"});
     if (o.tolerance < kMinPcgTolerance)
         throw ParameterError("the PCG tolerance (PcgOptions::tolerance) must be >= " + numberText(kMinPcgTolerance) +
                                  ", near what double precision resolves of b - A x",
                              {"PcgOptions::tolerance"});
     if (o.maxIterations < 1) throw ParameterError("the PCG iteration cap (PcgOptions::maxIterations) must be >= 1", {"PcgOptions::maxIterations"});
+}
+
+PcgSolver::PcgSolver(const SymmetricOperator& A, const PcgOptions& o) {
+    checkPcgOptions(o);
     impl_ = std::make_unique<Impl>(A, o);
 }
 

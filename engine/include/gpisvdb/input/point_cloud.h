@@ -21,7 +21,7 @@ struct PointCloud {
 };
 
 struct CloudNoiseOptions {
-    double sigmaRel = 0.5;  ///< default position std relative to ℓ when a point has no sigma, > 0
+    double sigmaRel = kDefaultSigmaRel;  ///< default position std relative to ℓ when a point has no sigma, > 0
     int areaNeighbours = 8; ///< k: the area estimate counts points in a cylinder of radius 2 × (k-th neighbour distance)
     int areaDoublings = 5;  ///< the cylinder's radius doubles at most this often while its points lie along a line, 0…20
     double areaIsotropy = 0.3; ///< ... that is, while their tangent second moments' ratio (min/max) is below this, 0…1

@@ -29,7 +29,7 @@ struct InputData {
 InputData readInput(const std::string& path);
 
 struct NoiseOptions {
-    double sigmaRel = 0.5;  ///< σ relative to ℓ (> 0)
+    double sigmaRel = kDefaultSigmaRel;  ///< σ relative to ℓ (> 0)
 };
 
 struct InputSamples {

@@ -7,6 +7,9 @@
 
 namespace gpisvdb {
 
+/// The default noise σ of vertices and points without their own, relative to the length scale ℓ (docs/math.md).
+constexpr double kDefaultSigmaRel = 0.5;
+
 /// Symmetric 3×3 stored as (xx, yy, zz, xy, xz, yz).
 struct Sym3 {
     double xx = 0, yy = 0, zz = 0, xy = 0, xz = 0, yz = 0;

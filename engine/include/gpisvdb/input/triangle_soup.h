@@ -15,7 +15,7 @@ struct TriangleSoup {
 };
 
 struct SoupNoiseOptions {
-    double sigmaRel = 0.5;  ///< vertex noise std σ relative to ℓ (σ = sigmaRel·ℓ), > 0
+    double sigmaRel = kDefaultSigmaRel;  ///< vertex noise std σ relative to ℓ (σ = sigmaRel·ℓ), > 0
 };
 
 struct SoupSamples {

@@ -22,10 +22,12 @@ enum class ModelKind {
 /// to 1e6 points at a fixed noise in world units, where s = 0.4 ℓ alone gave 14.1 and 24.5 at 1e4 and 1e5 against
 /// 4π (docs/math.md#smoothing, docs/benchmarks.md#coarse-voxels).
 constexpr double kNoiseSmoothing = 1.2;
+/// The default ModelOptions::smoothingRel: s = 0.4 ℓ (docs/math.md#smoothing).
+constexpr double kDefaultSmoothingRel = 0.4;
 
 struct ModelOptions {
-    double sigmaRel = 0.5;      ///< vertex/point noise std σ relative to ℓ (> 0)
-    double smoothingRel = 0.4;  ///< kernel smoothing s relative to ℓ (regression: to the training spacing) (> 0)
+    double sigmaRel = kDefaultSigmaRel;  ///< vertex/point noise std σ relative to ℓ (> 0)
+    double smoothingRel = kDefaultSmoothingRel;  ///< kernel smoothing s relative to ℓ (regression: to the training spacing) (> 0)
     /// Winding model of a cloud with its own σ per point (InputSamples::absoluteNoise): s is at least this × σ_p, the
     /// samples' median position std (world units), so that s follows the noise where the points are denser than it
     /// (≥ 0; 0: s = smoothingRel·ℓ alone). Where σ = sigmaRel·ℓ, s/σ is fixed by the two. docs/math.md#smoothing.

@@ -94,6 +94,10 @@ struct PcgResult {
 /// "Jacobi", "incomplete Cholesky", "multigrid", "aggregation" or "automatic" (for reports and messages).
 const char* preconditionerName(Preconditioner p);
 
+/// Throws ParameterError (naming PcgOptions::tolerance or ::maxIterations) for a tolerance outside
+/// [kMinPcgTolerance, ∞) or an iteration cap < 1: PcgSolver's own check, for front ends to make before the band.
+void checkPcgOptions(const PcgOptions& options);
+
 /// A PCG bound to one operator: the preconditioner is set up and the work vectors allocated at construction.
 /// The operator must outlive the solver. One solve at a time per object.
 class PcgSolver {
