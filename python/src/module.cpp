@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstddef>
@@ -437,12 +438,15 @@ PcgOptions pcgOptions(double tolerance, int maxIterations, const std::string& pr
     PcgOptions o;
     o.tolerance = tolerance;
     o.maxIterations = maxIterations;
-    if (preconditioner == "auto") o.preconditioner = Preconditioner::Automatic;
-    else if (preconditioner == "multigrid") o.preconditioner = Preconditioner::Multigrid;
-    else if (preconditioner == "aggregation") o.preconditioner = Preconditioner::Aggregation;
-    else if (preconditioner == "jacobi") o.preconditioner = Preconditioner::Jacobi;
-    else if (preconditioner == "ic") o.preconditioner = Preconditioner::IncompleteCholesky;
-    else throw ParameterError("preconditioner must be 'auto', 'aggregation', 'multigrid', 'jacobi' or 'ic', got '" + preconditioner + "'");
+    const auto& choices = preconditionerChoices();
+    const auto chosen = std::find_if(choices.begin(), choices.end(), [&](const auto& c) { return c.first == preconditioner; });
+    if (chosen == choices.end()) {
+        std::string names;
+        for (std::size_t i = 0; i < choices.size(); ++i)
+            names += (i == 0 ? "'" : i + 1 == choices.size() ? " or '" : ", '") + choices[i].first + "'";
+        throw ParameterError("preconditioner must be " + names + ", got '" + preconditioner + "'");
+    }
+    o.preconditioner = chosen->second;
     checkPcgOptions(o);
     return o;
 }

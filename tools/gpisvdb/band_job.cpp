@@ -155,13 +155,9 @@ void addSolverFlags(CLI::App& cmd, PcgOptions& o, SolverFlags which) {
         ->capture_default_str();
     cmd.add_option("--max-iterations", o.maxIterations, "PCG iteration cap (>= 1)")->capture_default_str();
     if (which == SolverFlags::ToleranceOnly) return;
-    std::map<std::string, Preconditioner> names = {{"auto", Preconditioner::Automatic},
-                                                   {"multigrid", Preconditioner::Multigrid},
-                                                   {"jacobi", Preconditioner::Jacobi}};
-    if (!distributed) {
-        names.emplace("ic", Preconditioner::IncompleteCholesky);
-        names.emplace("aggregation", Preconditioner::Aggregation);
-    }
+    std::map<std::string, Preconditioner> names;  // gpisvdb-mpi's PETSc solve has neither ic nor aggregation
+    for (const auto& [name, p] : preconditionerChoices())
+        if (!distributed || (p != Preconditioner::IncompleteCholesky && p != Preconditioner::Aggregation)) names.emplace(name, p);
     cmd.add_option("--preconditioner", o.preconditioner,
                    std::string("auto (default: ") + (distributed ? "multigrid" : "aggregation") +
                        " from 1e5 voxels, Jacobi below), multigrid (hypre BoomerAMG)" +

@@ -256,6 +256,14 @@ const char* preconditionerName(Preconditioner p) {
     return "?";
 }
 
+const std::vector<std::pair<std::string, Preconditioner>>& preconditionerChoices() {
+    static const std::vector<std::pair<std::string, Preconditioner>> kChoices = {
+        {"auto", Preconditioner::Automatic},   {"aggregation", Preconditioner::Aggregation},
+        {"multigrid", Preconditioner::Multigrid}, {"jacobi", Preconditioner::Jacobi},
+        {"ic", Preconditioner::IncompleteCholesky}};
+    return kChoices;
+}
+
 Preconditioner resolvePreconditioner(Preconditioner requested, std::size_t unknowns, bool assemblable, bool bandLaplacian) {
     if (requested != Preconditioner::Automatic) return requested;
     if (unknowns < kMultigridMinUnknowns) return Preconditioner::Jacobi;

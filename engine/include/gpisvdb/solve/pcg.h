@@ -16,6 +16,8 @@
 // solve to 1e-6 on the bunny (docs/benchmarks.md#pcg-tolerances). Extra memory, allocated at the first refined solve and kept: 16 bytes per unknown (r in double, the
 // correction's right-hand side and solution in float), plus 8 for x in double when the caller hands it in float.
 #include <memory>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "gpisvdb/core/progress.h"
@@ -93,6 +95,9 @@ struct PcgResult {
 
 /// "Jacobi", "incomplete Cholesky", "multigrid", "aggregation" or "automatic" (for reports and messages).
 const char* preconditionerName(Preconditioner p);
+/// The preconditioners by the names users choose them with (the command line's --preconditioner, Python's
+/// `preconditioner`): auto, aggregation, multigrid, jacobi, ic.
+const std::vector<std::pair<std::string, Preconditioner>>& preconditionerChoices();
 
 /// Throws ParameterError (naming PcgOptions::tolerance or ::maxIterations) for a tolerance outside
 /// [kMinPcgTolerance, ∞) or an iteration cap < 1: PcgSolver's own check, for front ends to make before the band.
