@@ -41,6 +41,7 @@ const std::vector<ParameterName>& parameterNames() {
         // === Solvers
         {"PcgOptions::tolerance", "--tolerance", "tolerance"},
         {"PcgOptions::maxIterations", "--max-iterations", "max_iterations"},
+        {"PcgOptions::preconditioner", "--preconditioner", "preconditioner"},
         {"AggregationOptions::maxLevels", "", ""},
         {"BoomerAmgOptions::strongThreshold", "", ""},
         {"BoomerAmgOptions::aggressiveLevels", "", ""},
