@@ -160,7 +160,7 @@ TEST_CASE("memory: info's forecast of the band's peak is within 25 % of the band
     }
     const std::string cloud = temp("memory_forecast_cloud.xyz");
     std::ofstream(cloud) << text.str();
-    for (const std::string args : {cloud + " --max-voxels 20000", gpisvdb::test::dataPath("bunny.obj") + " --sigma 1"}) {
+    for (const std::string& args : {cloud + " --max-voxels 20000", gpisvdb::test::dataPath("bunny.obj") + " --sigma 1"}) {
         const std::string info = temp("memory_forecast_info.json"), band = temp("memory_forecast_band.json");
         REQUIRE(run("info " + args + " --report " + info).code == 0);
         REQUIRE(run("band " + args + " -o " + temp("memory_forecast.vdb") + " --report " + band + " --quiet").code == 0);
