@@ -4,7 +4,6 @@
 // printed by that rank, which then ends the job (MPI_Abort).
 #include <slepcsys.h>
 
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>

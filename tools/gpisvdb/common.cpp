@@ -194,8 +194,6 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
     app.add_flag("--quiet", f.quiet, "no progress bar");
 }
 
-std::string errorMessage(const Error& error) { return app::frontEndMessage(error, app::FrontEnd::CommandLine); }
-
 int runCommand(const std::function<void()>& action, const std::function<void(const std::string& message, bool interrupted)>& report) {
     try {
         action();
@@ -203,7 +201,7 @@ int runCommand(const std::function<void()>& action, const std::function<void(con
         report("interrupted, no output written", true);
         return 128 + (interruptSignal() ? interruptSignal() : SIGINT);
     } catch (const Error& e) {
-        report("error: " + errorMessage(e), false);
+        report("error: " + app::frontEndMessage(e, app::FrontEnd::CommandLine), false);
         return 1;
     } catch (const std::exception& e) {
         report(std::string("internal error: ") + e.what(), false);

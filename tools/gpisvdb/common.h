@@ -77,14 +77,11 @@ Progress makeProgress(bool quiet);
 /// The command line as typed (recorded in output metadata).
 std::string& commandLine();
 
-/// The error's message in the command line's terms: each Options field it names (Error::parameters, e.g.
-/// "BandOptions::voxelSize") replaced by the flag that sets it ("--voxel-size"), or the flag appended in
-/// parentheses when the message does not spell the field; fields without a flag are left as they are.
-std::string errorMessage(const Error& error);
 
-/// Runs a parsed command: an exception becomes one message for `report` ("error: …" in the command line's names,
-/// "interrupted, no output written" with interrupted = true, or "internal error: …"), and the exit code main
-/// returns (0; 1 for an error; 128 + the signal for an interrupt). report removes the outputs and prints.
+/// Runs a parsed command: an exception becomes one message for `report` ("error: …", the engine's fields named by
+/// their flags (app/parameter_names.h); "interrupted, no output written" with interrupted = true; or "internal
+/// error: …"), and the exit code main returns (0; 1 for an error; 128 + the signal for an interrupt). report
+/// removes the outputs and prints.
 int runCommand(const std::function<void()>& action, const std::function<void(const std::string& message, bool interrupted)>& report);
 
 /// Sets up Ctrl-C and SIGTERM handling; call first in main, before any thread starts (they inherit the blocked

@@ -1,7 +1,6 @@
 // gpisvdb: uncertainty-aware geometry processing on Gaussian Process Implicit Surfaces.
 // Exit codes: 0 success, 1 error (input, parameter, output), 2 usage error, 130 interrupted (SIGINT, Ctrl-C),
 // 143 terminated (SIGTERM); either way within a second, leaving no output.
-#include <csignal>
 #include <iostream>
 
 #include "commands.h"
