@@ -5,6 +5,7 @@
 // spacing h, world units, each centred on a random sample): the cells' path (evaluateDense, what the band runs),
 // its tables made afresh in each run, and the packets' path (evaluate).
 // Usage: bench_scan_model [--sizes 10000,100000,1000000] [--sigma 0.01] [--h 0.004] [--blocks 16] [--repeat 3]
+//        [--cell-width 12] [--leaf-size 32] [--beta 6] (BarnesHutOptions)
 //        [--out bench/results/scan_model.json]
 #include <fstream>
 #include <iostream>
@@ -56,6 +57,7 @@ int main(int argc, char** argv) {
     std::size_t blocks = 16;
     int repeat = 3;
     std::string out = "bench/results/scan_model.json";
+    BarnesHutOptions options;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string a = argv[i], v = argv[i + 1];
         if (a == "--sizes") {
@@ -66,6 +68,9 @@ int main(int argc, char** argv) {
         else if (a == "--h") h = std::stod(v);
         else if (a == "--blocks") blocks = std::size_t(std::stod(v));
         else if (a == "--repeat") repeat = std::stoi(v);
+        else if (a == "--cell-width") options.cellWidth = std::stod(v);
+        else if (a == "--leaf-size") options.leafSize = std::stoi(v);
+        else if (a == "--beta") options.beta = std::stod(v);
         else if (a == "--out") out = v;
         else {
             std::cerr << "unknown option " << a << "\n";
@@ -80,9 +85,9 @@ int main(int argc, char** argv) {
         const Samples samples = cloudSamples(cloud).samples;
         const double samplesSeconds = bench::seconds(t0);
         t0 = bench::Clock::now();
-        const BarnesHutGpis bh(samples, smoothing);
+        const BarnesHutGpis bh(samples, smoothing, options);
         const double buildSeconds = bench::seconds(t0);
-        BarnesHutOptions cold;
+        BarnesHutOptions cold = options;
         cold.cellCacheBytes = 0;
         const BarnesHutGpis bhCold(samples, smoothing, cold);
         const std::vector<Vec3d> xs = leafBlocks(samples, h, blocks, 5);
@@ -105,7 +110,9 @@ int main(int argc, char** argv) {
         rows.push_back(row);
     }
     std::ofstream(out) << nlohmann::json{{"bench", "scan_model"}, {"sigma", sigma}, {"h", h}, {"blocks", blocks},
-                                         {"repeat", repeat}, {"rows", rows}}
+                                         {"repeat", repeat},
+                                         {"cell_width", options.cellWidth}, {"leaf_size", options.leafSize},
+                                         {"beta", options.beta}, {"rows", rows}}
                               .dump(2)
                        << "\n";
     std::cerr << "wrote " << out << "\n";

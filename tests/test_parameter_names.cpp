@@ -59,7 +59,7 @@ TEST_CASE("parameter names: every Options field the engine's messages name has e
 
 TEST_CASE("parameter names: each flag is the command line's and each keyword the Python module's", "[app]") {
     const std::string cli = sources(kSource / "tools/gpisvdb", {".cpp", ".h"});
-    const std::string python = fileText((kSource / "python/src/module.cpp").string());
+    const std::string python = sources(kSource / "python/src", {".cpp", ".h"});
     for (const auto& n : app::parameterNames()) {
         INFO(n.field << ": " << n.flag << ", " << n.keyword);
         if (!n.flag.empty()) {

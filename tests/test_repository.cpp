@@ -189,3 +189,26 @@ TEST_CASE("repository: engine stages include only earlier stages and their own o
     CHECK(checked > 200);  // 276 when written: the scan found the engine's includes
     CHECK(crossings.empty());
 }
+
+TEST_CASE("repository: no source file of engine/, tools/, mpi/ or python/ is over 500 lines", "[repository]") {
+    // Small files with self-explanatory names (DEVELOPERS.md's style): a longer one is split along what it holds.
+    std::vector<std::string> long_;
+    std::size_t checked = 0;
+    for (const fs::path& f : trackedFiles()) {
+        const std::string rel = fs::relative(f, kSource).generic_string();
+        const std::string top = rel.substr(0, rel.find('/'));
+        const std::string ext = f.extension().string();
+        if ((top != "engine" && top != "tools" && top != "mpi" && top != "python") ||
+            (ext != ".cpp" && ext != ".h" && ext != ".py" && !(ext.empty() && top == "tools")))
+            continue;
+        const std::string text = readAll(f);
+        const auto lines = std::count(text.begin(), text.end(), '\n');
+        ++checked;
+        if (lines > 500) long_.push_back(rel + ": " + std::to_string(lines) + " lines");
+    }
+    std::string list;
+    for (const auto& l : long_) list += "\n  " + l;
+    INFO(checked << " files checked; over 500 lines:" << list);
+    CHECK(checked > 100);
+    CHECK(long_.empty());
+}

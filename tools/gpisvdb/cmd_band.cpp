@@ -22,25 +22,21 @@ void addBand(CLI::App& app, Action& action) {
                 "density, the probability of being inside (--fog-name); an output ending in .nvdb is NanoVDB;\n"
                 "with --stencils also selling_weight_0..5 and selling_offset_0..5 (L can be rebuilt from them).\n"
                 "Example:\n  gpisvdb band bunny.obj -o bunny.vdb --sigma 1 --report bunny.json");
-    cmd->callback([&action, a] {
-        action = [a] {
-            const auto start = std::chrono::steady_clock::now();
-            const auto threads = limitThreads(a->flags.model.threads);
-            BandCommand run = startBandCommand(a->input, a->output, a->flags);
-            const BandJob& job = run.job;
-            writeBandVdb(job.result.band, run.out->tempPath(), bandMetadata(job, a->flags), {}, {}, a->flags.vdb);
-            run.out->commit();
-            const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            if (run.report) {
-                nlohmann::json report = bandReport(job, a->flags);
-                report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"total", total}};
-                report["outputs"] = {a->output};
-                commitReport(*run.report, report);
-            }
-            if (!a->flags.model.quiet)
-                std::cerr << "band: " << job.result.band.size() << " voxels of size " << job.options.voxelSize
-                          << ", mass " << job.result.band.mass() << " (expected area), " << total << " s\n";
-        };
+    onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) {
+        BandCommand run = startBandCommand(a->input, a->output, a->flags);
+        const BandJob& job = run.job;
+        writeBandVdb(job.result.band, run.out->tempPath(), bandMetadata(job, a->flags), {}, {}, a->flags.vdb);
+        run.out->commit();
+        const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (run.report) {
+            nlohmann::json report = bandReport(job, a->flags);
+            report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"total", total}};
+            report["outputs"] = {a->output};
+            commitReport(*run.report, report);
+        }
+        if (!a->flags.model.quiet)
+            std::cerr << "band: " << job.result.band.size() << " voxels of size " << job.options.voxelSize
+                      << ", mass " << job.result.band.mass() << " (expected area), " << total << " s\n";
     });
 }
 

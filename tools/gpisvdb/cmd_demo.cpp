@@ -320,103 +320,109 @@ void writeSummary(const std::vector<SigmaRun>& runs, const DemoArgs& a, double e
     if (!s) throw OutputError(path + ": cannot write the summary");
 }
 
+/// The flags of `gpisvdb demo`.
+void addFlags(CLI::App& cmd, DemoArgs& a) {
+    cmd.add_option("-o,--output", a.dir, "output directory (created if missing; files of the same names are replaced)")->capture_default_str();
+    cmd.add_option("--sigma", a.sigmas, "noise levels sigma, relative to the length scale l (> 0; one picture column each)")
+        ->expected(1, 6)
+        ->capture_default_str();
+    cmd.add_option("--voxel-size", a.voxelSize,
+                   "voxel size h in world units for every sigma (the torus' ring has radius 1; default: the default rule at each sigma)");
+    cmd.add_option("-k,--count", a.eigenCount, "eigenpairs per sigma (1 to 20)")->capture_default_str();
+    cmd.add_option("--picture-width", a.pictureWidth, "pixels per picture panel (64 to 2000)")->capture_default_str();
+    cmd.add_flag("--half", a.half, "store the .vdb grids as 16-bit floats");
+    cmd.add_option("--threads", a.threads, "worker threads (0 = all cores)")->capture_default_str();
+    cmd.add_flag("--quiet", a.quiet, "no progress bars or summary lines");
+    cmd.add_option("--max-memory", a.maxMemory,
+                   "refuse a band, solve or picture needing more memory than this, e.g. 8G (default: half the RAM)");
+}
+
+/// `gpisvdb demo` once its flags are parsed.
+void execute(DemoArgs& a) {
+    const auto start = Clock::now();
+    for (double s : a.sigmas)
+        if (!(s > 0) || !std::isfinite(s)) throw ParameterError("--sigma must be finite and > 0 (got " + numberText(s) + ")");
+    if (a.voxelSize != 0 && !(a.voxelSize >= 0.01 && a.voxelSize <= 0.2))
+        throw ParameterError("--voxel-size must be in [0.01, 0.2] for the built-in torus");
+    if (a.eigenCount < 1 || a.eigenCount > 20) throw ParameterError("-k must be in [1, 20]");
+    if (a.pictureWidth < 64 || a.pictureWidth > 2000) throw ParameterError("--picture-width must be in [64, 2000]");
+    const double limit = memoryLimit(StageFlags{a.maxMemory, ""});
+    const auto threads = limitThreads(a.threads);
+    AtomicDirectory out(a.dir);
+    const fs::path tmp(out.tempPath());
+    const Progress progress = makeProgress(a.quiet);
+
+    InputData data;
+    data.path = "built-in torus with a gap";
+    data.soup = demoShape();
+    std::vector<SigmaRun> runs;
+    for (double s : a.sigmas) {
+        runs.push_back(runSigma(data, s, a, tmp, progress));
+        const SigmaRun& r = runs.back();
+        if (!a.quiet)
+            std::cerr << "demo: sigma = " << s << " l: " << r.voxels << " band voxels, Green " << r.greenIterations
+                      << " PCG iterations, path " << r.path.length << (r.pathCrossesGap ? " across the gap" : " round the ring")
+                      << ", lambda_0 = " << r.eigenvalues.front() << "\n";
+    }
+    const auto tPictures = Clock::now();
+    // The comparison's memory (the larger picture): each surface in its 4 surface panels, the window of 6
+    // panels per sigma (docs/memory.md#demo); the input's picture, made after it, holds less
+    double panelVertices = 0;
+    for (const SigmaRun& r : runs) panelVertices += 4.0 * double(r.surface.vertices.size());
+    const double panelPixels = double(a.pictureWidth) * double(a.pictureWidth * 5 / 6);
+    const double pixels = 6.0 * double(runs.size()) * panelPixels;
+    const MemoryEstimate picturesMemory = estimateStageWithin(
+        limit, "pictures", "libraries, the results of every sigma", renderBytes(panelVertices, pixels),
+        [&](double need, double available) {
+            const double window = pixels * kRenderBytesPerPixel, fixed = need - window;
+            const double width = available > fixed ? std::floor(a.pictureWidth * std::sqrt((available - fixed) / window) * 0.95) : 0;
+            if (width >= 64) return "use --picture-width " + numberText(width) + " or smaller";
+            return "raise it (the renderer alone holds about " + numberText(kRenderContextBytes / 1e6) + " MB)";
+        });
+    const bool picturesOnly = resetPeakResident();
+    comparisonPicture(runs, a, (tmp / "comparison.png").string());
+    const double picturesPeak = peakResidentBytes();
+    inputPicture(*data.soup, a, (tmp / "input.png").string());  // after: the renderer's state it leaves is not the comparison's
+    const double secondsPictures = since(tPictures);
+    const double ell = makeSamples(data, {}).samples.lengthScale;
+    const double total = since(start);
+    writeSummary(runs, a, ell, total, (tmp / "summary.md").string());
+
+    nlohmann::json report = {{"input", {{"shape", "torus (ring 1, tube 0.4), 64 x 24 quads"}, {"gap_box_min", {kGapLo.x(), kGapLo.y(), kGapLo.z()}},
+                                        {"gap_box_max", {kGapHi.x(), kGapHi.y(), kGapHi.z()}}, {"triangles", data.soup->triangles.size()},
+                                        {"length_scale", ell}}},
+                             {"voxel_size", a.voxelSize > 0 ? nlohmann::json(a.voxelSize) : nlohmann::json("default rule per sigma")}, {"source", {kSource.x(), kSource.y(), kSource.z()}},
+                             {"target", {kTarget.x(), kTarget.y(), kTarget.z()}},
+                             {"plausible_sections", {{"plane", "z = 0"}, {"draws", kSectionDraws}, {"seed", kSectionSeed}}},
+                             {"runs", nlohmann::json::array()}};
+    for (const SigmaRun& r : runs)
+        report["runs"].push_back({{"sigma_rel", r.sigmaRel}, {"sigma", r.sigma}, {"voxel_size", r.voxelSize}, {"directory", r.subdir},
+                                  {"band_voxels", r.voxels}, {"band_mass", r.mass},
+                                  {"green_pcg_iterations", r.greenIterations},
+                                  {"path", {{"length", r.path.length}, {"distance", r.path.distance},
+                                            {"crosses_gap", r.pathCrossesGap}, {"reached_source", r.path.reachedSource}}},
+                                  {"eigenvalues", r.eigenvalues}, {"timings_s", r.timings},
+                                  {"memory", {{"stages", r.memory}}}});
+    report["timings_s"] = {{"pictures", secondsPictures}, {"total", total}};
+    report["memory"] = stageReport("pictures", memoryStageReport(picturesMemory, picturesPeak, picturesOnly))["memory"];
+    report["command_line"] = commandLine();
+    std::ofstream((tmp / "report.json").string()) << report.dump(2) << "\n";
+    out.commit();
+    if (!a.quiet)
+        std::cerr << "demo: wrote " << (fs::path(a.dir) / "summary.md").string() << " and the pictures, .vdb files and meshes beside it, "
+                  << std::setprecision(3) << total << " s\n";
+}
+
 }  // namespace
 
 void addDemo(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("demo", "the built-in example: a torus with a gap at three noise levels (band, Green, geodesic, eigenfunctions, pictures)");
     auto a = std::make_shared<DemoArgs>();
-    cmd->add_option("-o,--output", a->dir, "output directory (created if missing; files of the same names are replaced)")->capture_default_str();
-    cmd->add_option("--sigma", a->sigmas, "noise levels sigma, relative to the length scale l (> 0; one picture column each)")
-        ->expected(1, 6)
-        ->capture_default_str();
-    cmd->add_option("--voxel-size", a->voxelSize,
-                    "voxel size h in world units for every sigma (the torus' ring has radius 1; default: the default rule at each sigma)");
-    cmd->add_option("-k,--count", a->eigenCount, "eigenpairs per sigma (1 to 20)")->capture_default_str();
-    cmd->add_option("--picture-width", a->pictureWidth, "pixels per picture panel (64 to 2000)")->capture_default_str();
-    cmd->add_flag("--half", a->half, "store the .vdb grids as 16-bit floats");
-    cmd->add_option("--threads", a->threads, "worker threads (0 = all cores)")->capture_default_str();
-    cmd->add_flag("--quiet", a->quiet, "no progress bars or summary lines");
-    cmd->add_option("--max-memory", a->maxMemory,
-                    "refuse a band, solve or picture needing more memory than this, e.g. 8G (default: half the RAM)");
+    addFlags(*cmd, *a);
     cmd->footer("Writes DIR/summary.md, DIR/report.json, DIR/input.png, DIR/comparison.png and, per sigma,\n"
                 "DIR/sigma-<s>/{gpis.vdb, surface.vtp, path.vtp}. About a minute on 2 cores.\n"
                 "Examples:\n  gpisvdb demo -o demo-output\n  gpisvdb demo -o quick --sigma 1 --sigma 3 --voxel-size 0.08");
-    cmd->callback([&action, a] {
-        action = [a] {
-            const auto start = Clock::now();
-            for (double s : a->sigmas)
-                if (!(s > 0) || !std::isfinite(s)) throw ParameterError("--sigma must be finite and > 0 (got " + numberText(s) + ")");
-            if (a->voxelSize != 0 && !(a->voxelSize >= 0.01 && a->voxelSize <= 0.2))
-                throw ParameterError("--voxel-size must be in [0.01, 0.2] for the built-in torus");
-            if (a->eigenCount < 1 || a->eigenCount > 20) throw ParameterError("-k must be in [1, 20]");
-            if (a->pictureWidth < 64 || a->pictureWidth > 2000) throw ParameterError("--picture-width must be in [64, 2000]");
-            const double limit = memoryLimit(StageFlags{a->maxMemory, ""});
-            const auto threads = limitThreads(a->threads);
-            AtomicDirectory out(a->dir);
-            const fs::path tmp(out.tempPath());
-            const Progress progress = makeProgress(a->quiet);
-
-            InputData data;
-            data.path = "built-in torus with a gap";
-            data.soup = demoShape();
-            std::vector<SigmaRun> runs;
-            for (double s : a->sigmas) {
-                runs.push_back(runSigma(data, s, *a, tmp, progress));
-                const SigmaRun& r = runs.back();
-                if (!a->quiet)
-                    std::cerr << "demo: sigma = " << s << " l: " << r.voxels << " band voxels, Green " << r.greenIterations
-                              << " PCG iterations, path " << r.path.length << (r.pathCrossesGap ? " across the gap" : " round the ring")
-                              << ", lambda_0 = " << r.eigenvalues.front() << "\n";
-            }
-            const auto tPictures = Clock::now();
-            // The comparison's memory (the larger picture): each surface in its 4 surface panels, the window of 6
-            // panels per sigma (docs/memory.md#demo); the input's picture, made after it, holds less
-            double panelVertices = 0;
-            for (const SigmaRun& r : runs) panelVertices += 4.0 * double(r.surface.vertices.size());
-            const double panelPixels = double(a->pictureWidth) * double(a->pictureWidth * 5 / 6);
-            const double pixels = 6.0 * double(runs.size()) * panelPixels;
-            const MemoryEstimate picturesMemory = estimateStageWithin(
-                limit, "pictures", "libraries, the results of every sigma", renderBytes(panelVertices, pixels),
-                [&](double need, double available) {
-                    const double window = pixels * kRenderBytesPerPixel, fixed = need - window;
-                    const double width = available > fixed ? std::floor(a->pictureWidth * std::sqrt((available - fixed) / window) * 0.95) : 0;
-                    if (width >= 64) return "use --picture-width " + numberText(width) + " or smaller";
-                    return "raise it (the renderer alone holds about " + numberText(kRenderContextBytes / 1e6) + " MB)";
-                });
-            const bool picturesOnly = resetPeakResident();
-            comparisonPicture(runs, *a, (tmp / "comparison.png").string());
-            const double picturesPeak = peakResidentBytes();
-            inputPicture(*data.soup, *a, (tmp / "input.png").string());  // after: the renderer's state it leaves is not the comparison's
-            const double secondsPictures = since(tPictures);
-            const double ell = makeSamples(data, {}).samples.lengthScale;
-            const double total = since(start);
-            writeSummary(runs, *a, ell, total, (tmp / "summary.md").string());
-
-            nlohmann::json report = {{"input", {{"shape", "torus (ring 1, tube 0.4), 64 x 24 quads"}, {"gap_box_min", {kGapLo.x(), kGapLo.y(), kGapLo.z()}},
-                                                {"gap_box_max", {kGapHi.x(), kGapHi.y(), kGapHi.z()}}, {"triangles", data.soup->triangles.size()},
-                                                {"length_scale", ell}}},
-                                     {"voxel_size", a->voxelSize > 0 ? nlohmann::json(a->voxelSize) : nlohmann::json("default rule per sigma")}, {"source", {kSource.x(), kSource.y(), kSource.z()}},
-                                     {"target", {kTarget.x(), kTarget.y(), kTarget.z()}},
-                                     {"plausible_sections", {{"plane", "z = 0"}, {"draws", kSectionDraws}, {"seed", kSectionSeed}}},
-                                     {"runs", nlohmann::json::array()}};
-            for (const SigmaRun& r : runs)
-                report["runs"].push_back({{"sigma_rel", r.sigmaRel}, {"sigma", r.sigma}, {"voxel_size", r.voxelSize}, {"directory", r.subdir},
-                                          {"band_voxels", r.voxels}, {"band_mass", r.mass},
-                                          {"green_pcg_iterations", r.greenIterations},
-                                          {"path", {{"length", r.path.length}, {"distance", r.path.distance},
-                                                    {"crosses_gap", r.pathCrossesGap}, {"reached_source", r.path.reachedSource}}},
-                                          {"eigenvalues", r.eigenvalues}, {"timings_s", r.timings},
-                                          {"memory", {{"stages", r.memory}}}});
-            report["timings_s"] = {{"pictures", secondsPictures}, {"total", total}};
-            report["memory"] = stageReport("pictures", memoryStageReport(picturesMemory, picturesPeak, picturesOnly))["memory"];
-            report["command_line"] = commandLine();
-            std::ofstream((tmp / "report.json").string()) << report.dump(2) << "\n";
-            out.commit();
-            if (!a->quiet)
-                std::cerr << "demo: wrote " << (fs::path(a->dir) / "summary.md").string() << " and the pictures, .vdb files and meshes beside it, "
-                          << std::setprecision(3) << total << " s\n";
-        };
-    });
+    cmd->callback([&action, a] { action = [a] { execute(*a); }; });
 }
 
 }  // namespace gpisvdb::cli

@@ -15,14 +15,10 @@ void addGeodesic(CLI::App& app, Action& action) {
                 "sqrt(mu), so it grows faster where the surface is uncertain. Voxels not reached are inactive in\n"
                 "'geodesic' (background: the largest distance reached) and counted in the report.\n"
                 "Example:\n  gpisvdb geodesic bunny.obj --source 0.5,6,1 --target -2,9,0 -o geo.vdb --paths path.vtp --sigma 1");
-    cmd->callback([&action, a] {
-        action = [a] {
-            const auto start = std::chrono::steady_clock::now();
-            const auto threads = limitThreads(a->flags.model.threads);
-            GeodesicRequest request = geodesicRequest(*a);
-            BandCommand run = startBandCommand(a->input, a->output, a->flags);
-            finishGeodesic(run.job, *a, request, *run.out, run.report.get(), run.progress, start);
-        };
+    onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) {
+        GeodesicRequest request = geodesicRequest(*a);
+        BandCommand run = startBandCommand(a->input, a->output, a->flags);
+        finishGeodesic(run.job, *a, request, *run.out, run.report.get(), run.progress, start);
     });
 }
 

@@ -10,104 +10,112 @@
 
 namespace gpisvdb::cli {
 
-void addGreen(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("green", "Green's function of the GPIS Laplacian from a source point, as a .vdb");
-    struct Args {
-        std::string input, output;
-        std::vector<double> source;
-        BandFlags flags;
-        PcgOptions solver;
-        Spill spill = Spill::Automatic;
-    };
-    auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, kInputHelp)->required();
-    cmd->add_option("--source", a->source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
+namespace {
+
+struct Args {
+    std::string input, output;
+    std::vector<double> source;
+    BandFlags flags;
+    PcgOptions solver;
+    Spill spill = Spill::Automatic;
+};
+
+/// The flags of `gpisvdb green`.
+void addFlags(CLI::App& cmd, Args& a) {
+    cmd.add_option("INPUT", a.input, kInputHelp)->required();
+    cmd.add_option("--source", a.source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
         ->required()
         ->delimiter(',')
         ->expected(3);
-    cmd->add_option("-o,--output", a->output, "output .vdb (band grids and 'green')")->required();
-    addBandFlags(*cmd, a->flags);
-    addSolverFlags(*cmd, a->solver, SolverFlags::Preconditioner);
-    cmd->add_option("--spill", a->spill,
-                    "auto (default), always or never: write the band's grids to a side file before the solve and free "
-                    "their channels (44 B per voxel); auto does it when the solve would not fit --max-memory otherwise")
+    cmd.add_option("-o,--output", a.output, "output .vdb (band grids and 'green')")->required();
+    addBandFlags(cmd, a.flags);
+    addSolverFlags(cmd, a.solver, SolverFlags::Preconditioner);
+    cmd.add_option("--spill", a.spill,
+                   "auto (default), always or never: write the band's grids to a side file before the solve and free "
+                   "their channels (44 B per voxel); auto does it when the solve would not fit --max-memory otherwise")
         ->transform(CLI::CheckedTransformer(std::map<std::string, Spill>{
             {"auto", Spill::Automatic}, {"always", Spill::Always}, {"never", Spill::Never}}));
+}
+
+/// `gpisvdb green` once its flags are parsed.
+void execute(Args& a, Clock::time_point start) {
+    if (a.source.size() != 3 || !Vec3d(a.source[0], a.source[1], a.source[2]).allFinite())
+        throw ParameterError("--source needs three finite numbers X,Y,Z");
+    checkPcgOptions(a.solver);
+    BandCommand run = startBandCommand(a.input, a.output, a.flags);
+    const BandJob& job = run.job;
+    Band& band = run.job.result.band;
+    // The operator's and the solve's memory: estimated and refused before they allocate, measured over them
+    // (docs/memory.md). The matrix-free L is what the PCG applies; the aggregation multigrid sums L's edges
+    // into its coarse levels; hypre's set-up assembles L and keeps only its hierarchy; the incomplete
+    // Cholesky assembles L and keeps its factor.
+    const Preconditioner preconditioner =
+        resolvePreconditioner(a.solver.preconditioner, band.size(), /*assemblable*/ true, /*bandLaplacian*/ true);
+    std::vector<std::pair<std::string, double>> parts = greenSolveBytes(band.size(), a.solver, preconditioner);
+    // === Spill: the band's own grids written ahead and their channels freed (docs/memory.md#spill); auto
+    //     spills when that makes the solve fit (else the estimate below refuses it as it stands)
+    double stageBytes = 0;
+    for (const auto& part : parts) stageBytes += part.second;
+    const double held = settledResidentBytes(), freed = spillableChannelBytes(band);
+    const bool fitsSpilled = held - freed + stageBytes <= job.maxMemory;
+    std::unique_ptr<SpilledBandGrids> spilled;
+    if (!fitsSpilled) {
+        estimateStage(job, "Green's function solve", parts);  // refused as it stands, before any file is written
+    } else if (a.spill == Spill::Always || (a.spill == Spill::Automatic && held + stageBytes > job.maxMemory)) {
+        try {
+            spilled = std::make_unique<SpilledBandGrids>(band, run.out->tempPath() + ".grids", a.flags.vdb);
+        } catch (const OutputError& e) {
+            throw OutputError(std::string(e.what()) + " (the band's grids spilled before the solve; --spill never "
+                                                      "keeps them in memory instead)");
+        }
+        releaseSpilledChannels(band);
+        if (!a.flags.model.quiet)
+            std::cerr << "green: the band's grids are written ahead to " << spilled->path() << ", freeing "
+                      << numberText(freed / 1e6) << " MB for the solve\n";
+    }
+    const MemoryEstimate memory = estimateStage(job, "Green's function solve", std::move(parts));
+    const bool stageOnly = resetPeakResident();
+    const auto tOps = Clock::now();
+    const LaplacianOperator L(band);
+    const double secondsOps = std::chrono::duration<double>(Clock::now() - tOps).count();
+    const auto tSolve = Clock::now();
+    const GreenResult g = greensFunction(band, L, Vec3d(a.source[0], a.source[1], a.source[2]), a.solver, run.progress);
+    const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
+    const double solvePeak = peakResidentBytes();
+    requireConverged(g.solver, a.solver);
+    openvdb::MetaMap meta = bandMetadata(job, a.flags);
+    const openvdb::Coord y = band.coord[g.sourceIndex];
+    addGreenMetadata(meta, Vec3d(a.source[0], a.source[1], a.source[2]), y, g.solver);
+    if (spilled) writeBandVdb(band, *spilled, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a.flags.vdb);
+    else writeBandVdb(band, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a.flags.vdb);
+    run.out->commit();
+    const double total = std::chrono::duration<double>(Clock::now() - start).count();
+    if (run.report) {
+        nlohmann::json report = bandReport(job, a.flags);
+        report["solver"] = solverReport(g.solver, a.solver);
+        report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
+        report["green"] = {{"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}},
+                           {"source_index", g.sourceIndex}, {"spilled_band_grids", bool(spilled)}};
+        report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps},
+                               {"solve", secondsSolve}, {"total", total}};
+        report["outputs"] = {a.output};
+        commitReport(*run.report, report);
+    }
+    if (!a.flags.model.quiet)
+        std::cerr << "green: " << band.size() << " voxels, PCG (" << preconditionerName(g.solver.preconditioner)
+                  << ") " << g.solver.iterations << " iterations to "
+                  << g.solver.relativeResidual << ", " << total << " s\n";
+}
+
+}  // namespace
+
+void addGreen(CLI::App& app, Action& action) {
+    auto* cmd = app.add_subcommand("green", "Green's function of the GPIS Laplacian from a source point, as a .vdb");
+    auto a = std::make_shared<Args>();
+    addFlags(*cmd, *a);
     cmd->footer("Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
                 "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json");
-    cmd->callback([&action, a] {
-        action = [a] {
-            using Clock = std::chrono::steady_clock;
-            const auto start = Clock::now();
-            const auto threads = limitThreads(a->flags.model.threads);
-            if (a->source.size() != 3 || !Vec3d(a->source[0], a->source[1], a->source[2]).allFinite())
-                throw ParameterError("--source needs three finite numbers X,Y,Z");
-            checkPcgOptions(a->solver);
-            BandCommand run = startBandCommand(a->input, a->output, a->flags);
-            const BandJob& job = run.job;
-            Band& band = run.job.result.band;
-            // The operator's and the solve's memory: estimated and refused before they allocate, measured over them
-            // (docs/memory.md). The matrix-free L is what the PCG applies; the aggregation multigrid sums L's edges
-            // into its coarse levels; hypre's set-up assembles L and keeps only its hierarchy; the incomplete
-            // Cholesky assembles L and keeps its factor.
-            const Preconditioner preconditioner =
-                resolvePreconditioner(a->solver.preconditioner, band.size(), /*assemblable*/ true, /*bandLaplacian*/ true);
-            std::vector<std::pair<std::string, double>> parts = greenSolveBytes(band.size(), a->solver, preconditioner);
-            // === Spill: the band's own grids written ahead and their channels freed (docs/memory.md#spill); auto
-            //     spills when that makes the solve fit (else the estimate below refuses it as it stands)
-            double stageBytes = 0;
-            for (const auto& part : parts) stageBytes += part.second;
-            const double held = settledResidentBytes(), freed = spillableChannelBytes(band);
-            const bool fitsSpilled = held - freed + stageBytes <= job.maxMemory;
-            std::unique_ptr<SpilledBandGrids> spilled;
-            if (!fitsSpilled) {
-                estimateStage(job, "Green's function solve", parts);  // refused as it stands, before any file is written
-            } else if (a->spill == Spill::Always || (a->spill == Spill::Automatic && held + stageBytes > job.maxMemory)) {
-                try {
-                    spilled = std::make_unique<SpilledBandGrids>(band, run.out->tempPath() + ".grids", a->flags.vdb);
-                } catch (const OutputError& e) {
-                    throw OutputError(std::string(e.what()) + " (the band's grids spilled before the solve; --spill never "
-                                                              "keeps them in memory instead)");
-                }
-                releaseSpilledChannels(band);
-                if (!a->flags.model.quiet)
-                    std::cerr << "green: the band's grids are written ahead to " << spilled->path() << ", freeing "
-                              << numberText(freed / 1e6) << " MB for the solve\n";
-            }
-            const MemoryEstimate memory = estimateStage(job, "Green's function solve", std::move(parts));
-            const bool stageOnly = resetPeakResident();
-            const auto tOps = Clock::now();
-            const LaplacianOperator L(band);
-            const double secondsOps = std::chrono::duration<double>(Clock::now() - tOps).count();
-            const auto tSolve = Clock::now();
-            const GreenResult g = greensFunction(band, L, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, run.progress);
-            const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
-            const double solvePeak = peakResidentBytes();
-            requireConverged(g.solver, a->solver);
-            openvdb::MetaMap meta = bandMetadata(job, a->flags);
-            const openvdb::Coord y = band.coord[g.sourceIndex];
-            addGreenMetadata(meta, Vec3d(a->source[0], a->source[1], a->source[2]), y, g.solver);
-            if (spilled) writeBandVdb(band, *spilled, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
-            else writeBandVdb(band, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a->flags.vdb);
-            run.out->commit();
-            const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (run.report) {
-                nlohmann::json report = bandReport(job, a->flags);
-                report["solver"] = solverReport(g.solver, a->solver);
-                report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
-                report["green"] = {{"source", a->source}, {"source_voxel", {y.x(), y.y(), y.z()}},
-                                   {"source_index", g.sourceIndex}, {"spilled_band_grids", bool(spilled)}};
-                report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps},
-                                       {"solve", secondsSolve}, {"total", total}};
-                report["outputs"] = {a->output};
-                commitReport(*run.report, report);
-            }
-            if (!a->flags.model.quiet)
-                std::cerr << "green: " << band.size() << " voxels, PCG (" << preconditionerName(g.solver.preconditioner)
-                          << ") " << g.solver.iterations << " iterations to "
-                          << g.solver.relativeResidual << ", " << total << " s\n";
-        };
-    });
+    onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -74,63 +74,74 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
 
 }  // namespace
 
+namespace {
+
+struct Args {
+    std::string input;
+    BandFlags flags;
+    bool forecast = true;
+};
+
+/// The flags of `gpisvdb info`.
+void addFlags(CLI::App& cmd, Args& a) {
+    cmd.add_option("INPUT", a.input, kInputHelp)->required();
+    addBandFlags(cmd, a.flags);
+    cmd.add_flag("!--no-forecast", a.forecast, "describe the input only: no model, no band forecast");
+}
+
+/// `gpisvdb info` once its flags are parsed.
+void execute(Args& a) {
+    const ModelFlags& flags = a.flags.model;
+    if (!(flags.smoothingRel > 0)) throw ParameterError("--smoothing must be > 0");
+    const auto threads = limitThreads(flags.threads);
+    const double limit = memoryLimit({a.flags.maxMemory, a.flags.report});
+    const auto start = Clock::now();
+    const InputData data = readInput(a.input);
+    const double readSeconds = since(start);
+    std::unique_ptr<AtomicOutput> reportOut;
+    if (!a.flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a.flags.report);
+    nlohmann::json report;
+    {
+        // === The samples (a triangle's or a point's position, normal and their covariances): estimated and
+        //     refused before they are made, measured over it (docs/memory.md#info). The input, read in whole
+        //     before, is the baseline; no setting makes fewer samples.
+        const MemoryEstimate memory = estimateStageWithin(limit, "sampling of the input", "libraries, the input",
+                                                          makeSamplesBytes(data),
+                                                          [](double, double) { return std::string("raise it"); });
+        const bool stageOnly = resetPeakResident();
+        const InputSamples s = makeSamples(data, {flags.sigmaRel});
+        const double peak = peakResidentBytes();
+        Vec3d lo = s.samples.position[0], hi = lo;
+        for (const auto& p : s.samples.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+        const double ell = s.samples.lengthScale;
+        std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
+                  << "samples:      " << s.samples.size() << "\n"
+                  << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : s.lengthScaleGiven ? " (given in the file)" : " (sqrt(area / points))") << "\n"
+                  << "bbox min:     " << lo.transpose() << "\n"
+                  << "bbox max:     " << hi.transpose() << "\n"
+                  << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"
+                  << "smoothing:    " << flags.smoothingRel << " x l = " << flags.smoothingRel * ell << "\n"
+                  << "skipped:      " << s.degenerateSkipped << " zero-area triangles\n"
+                  << "triangulated: " << data.polygonsTriangulated << " polygons with more than 3 corners (fans)\n";
+        report = stageReport("samples", memoryStageReport(memory, peak, stageOnly));
+        report["input"] = {{"path", data.path}, {"samples", s.samples.size()},
+                           {"kind", s.isSoup ? "triangle soup" : "oriented point cloud"}};
+    }
+    // (the samples are freed first: the band command holds the input and the model only)
+    if (a.forecast) report["forecast"] = forecastDefaultBand(data, readSeconds, a.flags);
+    if (reportOut) commitReport(*reportOut, report);
+}
+
+}  // namespace
+
 void addInfo(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("info", "describe an input (samples, length scale, bounding box, what was skipped) "
                                            "and forecast the default band: voxel size, voxels, memory, time");
-    struct Args {
-        std::string input;
-        BandFlags flags;
-        bool forecast = true;
-    };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, kInputHelp)->required();
-    addBandFlags(*cmd, a->flags);
-    cmd->add_flag("!--no-forecast", a->forecast, "describe the input only: no model, no band forecast");
+    addFlags(*cmd, *a);
     cmd->footer("The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
                 "Example:\n  gpisvdb info bunny.obj --sigma 0.25");
-    cmd->callback([&action, a] {
-        action = [a] {
-            const ModelFlags& flags = a->flags.model;
-            if (!(flags.smoothingRel > 0)) throw ParameterError("--smoothing must be > 0");
-            const auto threads = limitThreads(flags.threads);
-            const double limit = memoryLimit({a->flags.maxMemory, a->flags.report});
-            const auto start = Clock::now();
-            const InputData data = readInput(a->input);
-            const double readSeconds = since(start);
-            std::unique_ptr<AtomicOutput> reportOut;
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            nlohmann::json report;
-            {
-                // === The samples (a triangle's or a point's position, normal and their covariances): estimated and
-                //     refused before they are made, measured over it (docs/memory.md#info). The input, read in whole
-                //     before, is the baseline; no setting makes fewer samples.
-                const MemoryEstimate memory = estimateStageWithin(limit, "sampling of the input", "libraries, the input",
-                                                                  makeSamplesBytes(data),
-                                                                  [](double, double) { return std::string("raise it"); });
-                const bool stageOnly = resetPeakResident();
-                const InputSamples s = makeSamples(data, {flags.sigmaRel});
-                const double peak = peakResidentBytes();
-                Vec3d lo = s.samples.position[0], hi = lo;
-                for (const auto& p : s.samples.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-                const double ell = s.samples.lengthScale;
-                std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
-                          << "samples:      " << s.samples.size() << "\n"
-                          << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : s.lengthScaleGiven ? " (given in the file)" : " (sqrt(area / points))") << "\n"
-                          << "bbox min:     " << lo.transpose() << "\n"
-                          << "bbox max:     " << hi.transpose() << "\n"
-                          << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"
-                          << "smoothing:    " << flags.smoothingRel << " x l = " << flags.smoothingRel * ell << "\n"
-                          << "skipped:      " << s.degenerateSkipped << " zero-area triangles\n"
-                          << "triangulated: " << data.polygonsTriangulated << " polygons with more than 3 corners (fans)\n";
-                report = stageReport("samples", memoryStageReport(memory, peak, stageOnly));
-                report["input"] = {{"path", data.path}, {"samples", s.samples.size()},
-                                   {"kind", s.isSoup ? "triangle soup" : "oriented point cloud"}};
-            }
-            // (the samples are freed first: the band command holds the input and the model only)
-            if (a->forecast) report["forecast"] = forecastDefaultBand(data, readSeconds, a->flags);
-            if (reportOut) commitReport(*reportOut, report);
-        };
-    });
+    cmd->callback([&action, a] { action = [a] { execute(*a); }; });
 }
 
 }  // namespace gpisvdb::cli

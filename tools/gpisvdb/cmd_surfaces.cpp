@@ -61,130 +61,135 @@ nlohmann::json drawPicture(const BandJob& job, const openvdb::FloatGrid::Ptr& me
     return memoryStageReport(memory, peakResidentBytes(), stageOnly);
 }
 
+
+struct Args {
+    std::string input, dir, format = "ply", picture;
+    SurfaceDrawOptions draws;
+    BandFlags flags;
+};
+
+/// The flags of `gpisvdb surfaces`.
+void addFlags(CLI::App& cmd, Args& a) {
+    cmd.add_option("INPUT", a.input, kInputHelp)->required();
+    cmd.add_option("-o,--output", a.dir, "output directory (created; files of the same names in it are replaced)")->required();
+    cmd.add_option("-n,--count", a.draws.count, "number of draws (1 to 10000)")->capture_default_str();
+    cmd.add_option("--seed", a.draws.seed, "random seed: draw k is the same for a seed whatever n, --first or --threads")
+        ->capture_default_str();
+    cmd.add_option("--first", a.draws.firstDraw, "index of the first draw (draws --first ... --first + n - 1)")
+        ->capture_default_str();
+    cmd.add_option("--format", a.format, "mesh format: ply (binary, the draw in its header comment) or vtp")
+        ->check(CLI::IsMember({"ply", "vtp"}))
+        ->capture_default_str();
+    cmd.add_option("--draw-beta", a.draws.openingRatio,
+                   "the draws' Barnes-Hut opening ratio (> 1; larger is more accurate and slower)")
+        ->capture_default_str();
+    cmd.add_option("--picture", a.picture,
+                   "also a PNG: the mean surface and the first three draws side by side, coloured by the std of phi");
+    addBandFlags(cmd, a.flags);
+}
+
+/// `gpisvdb surfaces` once its flags are parsed.
+void execute(Args& a, Clock::time_point start) {
+    if (a.flags.model.model != "winding")
+        throw ParameterError("plausible surfaces are drawn from the winding-number model only (--model winding): "
+                             "the regression model's draws would need its posterior's factor");
+    if (a.draws.count < 1 || a.draws.count > 10000) throw ParameterError("-n must be between 1 and 10000");
+    if (a.draws.firstDraw < 0 || a.draws.firstDraw > std::numeric_limits<int>::max() - a.draws.count)
+        throw ParameterError("--first must be >= 0, and --first + n must fit an int");
+    if (!(a.draws.openingRatio > 1) || !std::isfinite(a.draws.openingRatio))
+        throw ParameterError("--draw-beta must be finite and > 1");
+    const MeshFormat format = a.format == "ply" ? MeshFormat::Ply : MeshFormat::Vtp;
+    const InputData data = readInput(a.input);
+    AtomicDirectory out(a.dir);
+    std::unique_ptr<AtomicOutput> pictureOut;
+    if (!a.picture.empty()) pictureOut = std::make_unique<AtomicOutput>(a.picture);
+    std::unique_ptr<AtomicOutput> reportOut;
+    if (!a.flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a.flags.report);
+    const Progress progress = makeProgress(a.flags.model.quiet);
+    const BandJob job = runBand(data, a.flags, progress);
+    const Band& band = job.result.band;
+    const Samples& samples = job.model.input.samples;
+    const int n = a.draws.count;
+
+    // === Memory, refused before the draws allocate: the noise and the tree, n fields over the band, and one
+    //     draw's grid and mesh at a time (the mean surface's as their measure: a draw's mesh has ≈ 4 % more
+    //     triangles on the bunny)
+    const auto meanGrid = drawGrid(band, band.mean);
+    std::vector<std::pair<std::string, double>> parts = {
+        {"draws' noise and tree", SurfaceDraws::bytes(samples.size(), a.draws)},
+        {"draws' fields", 4.0 * double(n) * double(band.size())},
+        {"draw's grid", double(meanGrid->memUsage())}};  // one at a time, the band's topology as the mean's
+    for (const auto& part : meanSurfaceBytes(*meanGrid, band.iso, 0, format == MeshFormat::Vtp))
+        parts.push_back({"mesh: " + part.first, part.second});
+    const MemoryEstimate memory = estimateStage(job, "plausible surfaces", std::move(parts));
+    const bool stageOnly = resetPeakResident();
+
+    // === The draws' fields on the band, then each one's level set u
+    const auto tDraws = Clock::now();
+    const SurfaceDraws draws(samples, job.model.smoothing, a.draws);
+    const std::vector<std::vector<float>> fields = draws.onBand(band, progress);
+    const double secondsDraws = std::chrono::duration<double>(Clock::now() - tDraws).count();
+    const auto tMeshes = Clock::now();
+    nlohmann::json meshes = nlohmann::json::array();
+    std::vector<SurfaceMesh> shown;  // the first three draws, for --picture
+    double areaSum = 0, areaSum2 = 0;
+    const std::filesystem::path tmp(out.tempPath());
+    for (int k = 0; k < n; ++k) {
+        progress.checkInterrupt();
+        progress.update("meshes", double(k) / n);
+        const int draw = a.draws.firstDraw + k;
+        SurfaceMesh mesh = meanSurface(*drawGrid(band, fields[std::size_t(k)]), band.iso);
+        mesh.comment = "gpisvdb plausible surface: draw " + std::to_string(draw) + " of seed " +
+                       std::to_string(a.draws.seed);
+        const std::string name = surfaceFileName(draw, format);
+        writeMesh(mesh, (tmp / name).string(), format);
+        const double area = surfaceArea(mesh);
+        areaSum += area;
+        areaSum2 += area * area;
+        meshes.push_back({{"draw", draw}, {"file", name}, {"vertices", mesh.vertices.size()},
+                          {"triangles", mesh.triangles.size()}, {"area", area}});
+        if (!a.picture.empty() && shown.size() < 3) shown.push_back(std::move(mesh));
+    }
+    progress.update("meshes", 1.0);
+    const double secondsMeshes = std::chrono::duration<double>(Clock::now() - tMeshes).count();
+    const double peak = peakResidentBytes();
+    nlohmann::json pictureStage;
+    if (pictureOut) pictureStage = drawPicture(job, meanGrid, shown, a.draws.firstDraw, pictureOut->tempPath());
+    const double meanArea = areaSum / n;
+    const double areaStd = n > 1 ? std::sqrt(std::max(0.0, (areaSum2 - n * meanArea * meanArea) / (n - 1))) : 0.0;
+    out.commit();
+    if (pictureOut) pictureOut->commit();
+    const double total = std::chrono::duration<double>(Clock::now() - start).count();
+    if (reportOut) {
+        nlohmann::json report = bandReport(job, a.flags);
+        report["memory"]["stages"] = {{"surfaces", memoryStageReport(memory, peak, stageOnly)}};
+        if (!pictureStage.is_null()) report["memory"]["stages"]["picture"] = pictureStage;
+        report["surfaces"] = {{"count", n}, {"seed", a.draws.seed}, {"first", a.draws.firstDraw},
+                              {"draw_beta", a.draws.openingRatio}, {"expected_area", band.mass()},
+                              {"mean_area", meanArea}, {"area_std", areaStd}, {"meshes", meshes}};
+        report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"draws", secondsDraws},
+                               {"meshes", secondsMeshes}, {"total", total}};
+        report["outputs"] = {a.dir};
+        if (!a.picture.empty()) report["outputs"].push_back(a.picture);
+        commitReport(*reportOut, report);
+    }
+    if (!a.flags.model.quiet)
+        std::cerr << "surfaces: " << n << " draws on " << band.size() << " voxels, area " << numberText(meanArea)
+                  << " +- " << numberText(areaStd) << " (expected " << numberText(band.mass()) << ") -> "
+                  << a.dir << ", " << total << " s\n";
+}
+
 }  // namespace
 
 void addSurfaces(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("surfaces", "plausible surfaces: meshes of n draws of the GPIS, in a directory");
-    struct Args {
-        std::string input, dir, format = "ply", picture;
-        SurfaceDrawOptions draws;
-        BandFlags flags;
-    };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, kInputHelp)->required();
-    cmd->add_option("-o,--output", a->dir, "output directory (created; files of the same names in it are replaced)")->required();
-    cmd->add_option("-n,--count", a->draws.count, "number of draws (1 to 10000)")->capture_default_str();
-    cmd->add_option("--seed", a->draws.seed, "random seed: draw k is the same for a seed whatever n, --first or --threads")
-        ->capture_default_str();
-    cmd->add_option("--first", a->draws.firstDraw, "index of the first draw (draws --first ... --first + n - 1)")
-        ->capture_default_str();
-    cmd->add_option("--format", a->format, "mesh format: ply (binary, the draw in its header comment) or vtp")
-        ->check(CLI::IsMember({"ply", "vtp"}))
-        ->capture_default_str();
-    cmd->add_option("--draw-beta", a->draws.openingRatio,
-                    "the draws' Barnes-Hut opening ratio (> 1; larger is more accurate and slower)")
-        ->capture_default_str();
-    cmd->add_option("--picture", a->picture,
-                    "also a PNG: the mean surface and the first three draws side by side, coloured by the std of phi");
-    addBandFlags(*cmd, a->flags);
+    addFlags(*cmd, *a);
     cmd->footer("Each draw is one sample of the noise of the input (positions and normals), mapped through the\n"
                 "linearised model: its field gamma + J eps is evaluated on the band and meshed at u, to\n"
                 "DIR/surface_<k>.ply (k the draw's index). The winding-number model only.\n"
                 "Example:\n  gpisvdb surfaces bunny.obj -n 8 --seed 3 --sigma 2 -o bunny-draws/");
-    cmd->callback([&action, a] {
-        action = [a] {
-            using Clock = std::chrono::steady_clock;
-            const auto start = Clock::now();
-            const auto threads = limitThreads(a->flags.model.threads);
-            if (a->flags.model.model != "winding")
-                throw ParameterError("plausible surfaces are drawn from the winding-number model only (--model winding): "
-                                     "the regression model's draws would need its posterior's factor");
-            if (a->draws.count < 1 || a->draws.count > 10000) throw ParameterError("-n must be between 1 and 10000");
-            if (a->draws.firstDraw < 0 || a->draws.firstDraw > std::numeric_limits<int>::max() - a->draws.count)
-                throw ParameterError("--first must be >= 0, and --first + n must fit an int");
-            if (!(a->draws.openingRatio > 1) || !std::isfinite(a->draws.openingRatio))
-                throw ParameterError("--draw-beta must be finite and > 1");
-            const MeshFormat format = a->format == "ply" ? MeshFormat::Ply : MeshFormat::Vtp;
-            const InputData data = readInput(a->input);
-            AtomicDirectory out(a->dir);
-            std::unique_ptr<AtomicOutput> pictureOut;
-            if (!a->picture.empty()) pictureOut = std::make_unique<AtomicOutput>(a->picture);
-            std::unique_ptr<AtomicOutput> reportOut;
-            if (!a->flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a->flags.report);
-            const Progress progress = makeProgress(a->flags.model.quiet);
-            const BandJob job = runBand(data, a->flags, progress);
-            const Band& band = job.result.band;
-            const Samples& samples = job.model.input.samples;
-            const int n = a->draws.count;
-
-            // === Memory, refused before the draws allocate: the noise and the tree, n fields over the band, and one
-            //     draw's grid and mesh at a time (the mean surface's as their measure: a draw's mesh has ≈ 4 % more
-            //     triangles on the bunny)
-            const auto meanGrid = drawGrid(band, band.mean);
-            std::vector<std::pair<std::string, double>> parts = {
-                {"draws' noise and tree", SurfaceDraws::bytes(samples.size(), a->draws)},
-                {"draws' fields", 4.0 * double(n) * double(band.size())},
-                {"draw's grid", double(meanGrid->memUsage())}};  // one at a time, the band's topology as the mean's
-            for (const auto& part : meanSurfaceBytes(*meanGrid, band.iso, 0, format == MeshFormat::Vtp))
-                parts.push_back({"mesh: " + part.first, part.second});
-            const MemoryEstimate memory = estimateStage(job, "plausible surfaces", std::move(parts));
-            const bool stageOnly = resetPeakResident();
-
-            // === The draws' fields on the band, then each one's level set u
-            const auto tDraws = Clock::now();
-            const SurfaceDraws draws(samples, job.model.smoothing, a->draws);
-            const std::vector<std::vector<float>> fields = draws.onBand(band, progress);
-            const double secondsDraws = std::chrono::duration<double>(Clock::now() - tDraws).count();
-            const auto tMeshes = Clock::now();
-            nlohmann::json meshes = nlohmann::json::array();
-            std::vector<SurfaceMesh> shown;  // the first three draws, for --picture
-            double areaSum = 0, areaSum2 = 0;
-            const std::filesystem::path tmp(out.tempPath());
-            for (int k = 0; k < n; ++k) {
-                progress.checkInterrupt();
-                progress.update("meshes", double(k) / n);
-                const int draw = a->draws.firstDraw + k;
-                SurfaceMesh mesh = meanSurface(*drawGrid(band, fields[std::size_t(k)]), band.iso);
-                mesh.comment = "gpisvdb plausible surface: draw " + std::to_string(draw) + " of seed " +
-                               std::to_string(a->draws.seed);
-                const std::string name = surfaceFileName(draw, format);
-                writeMesh(mesh, (tmp / name).string(), format);
-                const double area = surfaceArea(mesh);
-                areaSum += area;
-                areaSum2 += area * area;
-                meshes.push_back({{"draw", draw}, {"file", name}, {"vertices", mesh.vertices.size()},
-                                  {"triangles", mesh.triangles.size()}, {"area", area}});
-                if (!a->picture.empty() && shown.size() < 3) shown.push_back(std::move(mesh));
-            }
-            progress.update("meshes", 1.0);
-            const double secondsMeshes = std::chrono::duration<double>(Clock::now() - tMeshes).count();
-            const double peak = peakResidentBytes();
-            nlohmann::json pictureStage;
-            if (pictureOut) pictureStage = drawPicture(job, meanGrid, shown, a->draws.firstDraw, pictureOut->tempPath());
-            const double meanArea = areaSum / n;
-            const double areaStd = n > 1 ? std::sqrt(std::max(0.0, (areaSum2 - n * meanArea * meanArea) / (n - 1))) : 0.0;
-            out.commit();
-            if (pictureOut) pictureOut->commit();
-            const double total = std::chrono::duration<double>(Clock::now() - start).count();
-            if (reportOut) {
-                nlohmann::json report = bandReport(job, a->flags);
-                report["memory"]["stages"] = {{"surfaces", memoryStageReport(memory, peak, stageOnly)}};
-                if (!pictureStage.is_null()) report["memory"]["stages"]["picture"] = pictureStage;
-                report["surfaces"] = {{"count", n}, {"seed", a->draws.seed}, {"first", a->draws.firstDraw},
-                                      {"draw_beta", a->draws.openingRatio}, {"expected_area", band.mass()},
-                                      {"mean_area", meanArea}, {"area_std", areaStd}, {"meshes", meshes}};
-                report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"draws", secondsDraws},
-                                       {"meshes", secondsMeshes}, {"total", total}};
-                report["outputs"] = {a->dir};
-                if (!a->picture.empty()) report["outputs"].push_back(a->picture);
-                commitReport(*reportOut, report);
-            }
-            if (!a->flags.model.quiet)
-                std::cerr << "surfaces: " << n << " draws on " << band.size() << " voxels, area " << numberText(meanArea)
-                          << " +- " << numberText(areaStd) << " (expected " << numberText(band.mass()) << ") -> "
-                          << a->dir << ", " << total << " s\n";
-        };
-    });
+    onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
 }
 
 }  // namespace gpisvdb::cli

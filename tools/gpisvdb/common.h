@@ -1,6 +1,7 @@
 #pragma once
 // Shared pieces of the command line: model flags, outputs written atomically, progress and Ctrl-C.
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -32,6 +33,21 @@ void addModelFlags(CLI::App& app, ModelFlags& flags, bool withModel);
 
 /// Applies --threads for the life of the returned object.
 std::shared_ptr<void> limitThreads(int threads);
+
+using Clock = std::chrono::steady_clock;
+
+/// Sets the subcommand's action (run after parsing) to run(start) with the limit of `threads` (--threads, read when
+/// the action runs) held; `start` is when the action began, from which the report's total time counts.
+template <class Run>
+void onRun(CLI::App& cmd, std::function<void()>& action, const int& threads, Run run) {
+    cmd.callback([&action, &threads, run] {
+        action = [&threads, run] {
+            const Clock::time_point start = Clock::now();
+            const auto limit = limitThreads(threads);
+            run(start);
+        };
+    });
+}
 
 /// The engine's model options for the flags (reads --labels): pass to loadModel (gpisvdb/model/load_model.h).
 ModelOptions modelOptions(const ModelFlags& flags);

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <cstdint>
 #include <string>
 #include <Eigen/Dense>
@@ -491,10 +490,8 @@ std::size_t AggregationMultigrid::memoryBytes() const {
     return bytes;
 }
 
-// Measured: the green stage's peak with --preconditioner aggregation over its baseline, less the operator, the PCG
-// and the right-hand side counted above, 33 bytes per voxel on the bunny at σ_rel 1 (h 0.05: 1.3 M voxels, ≈ 7
-// voxels per aggregate) and 52 at σ_rel 0.25 (h 0.0239: 2.4 M voxels, a thinner band: ≈ 4 per aggregate);
-// docs/memory.md#aggregation. The middle keeps both stages within ±6 %.
+// The green stage's peak beyond the operator, the PCG and the right-hand side, between the two bands measured
+// (a thinner band has smaller aggregates, so more coarse unknowns): docs/memory.md#aggregation.
 const double kAggregationBytesPerVoxel = 40;
 
 double aggregationBytes(std::size_t n) { return kAggregationBytesPerVoxel * double(n); }
