@@ -5,7 +5,7 @@
 // spacing h, world units, each centred on a random sample): the cells' path (evaluateDense, what the band runs),
 // its tables made afresh in each run, and the packets' path (evaluate).
 // Usage: bench_scan_model [--sizes 10000,100000,1000000] [--sigma 0.01] [--h 0.004] [--blocks 16] [--repeat 3]
-//        [--cell-width 12] [--leaf-size 32] [--beta 6] (BarnesHutOptions)
+//        [--cell-width 12] [--leaf-size 32] [--beta 6] [--covariance-ratio 2] (BarnesHutOptions)
 //        [--out bench/results/scan_model.json]
 #include <fstream>
 #include <iostream>
@@ -71,6 +71,7 @@ int main(int argc, char** argv) {
         else if (a == "--cell-width") options.cellWidth = std::stod(v);
         else if (a == "--leaf-size") options.leafSize = std::stoi(v);
         else if (a == "--beta") options.beta = std::stod(v);
+        else if (a == "--covariance-ratio") options.covarianceRatio = std::stod(v);
         else if (a == "--out") out = v;
         else {
             std::cerr << "unknown option " << a << "\n";
@@ -112,7 +113,8 @@ int main(int argc, char** argv) {
     std::ofstream(out) << nlohmann::json{{"bench", "scan_model"}, {"sigma", sigma}, {"h", h}, {"blocks", blocks},
                                          {"repeat", repeat},
                                          {"cell_width", options.cellWidth}, {"leaf_size", options.leafSize},
-                                         {"beta", options.beta}, {"rows", rows}}
+                                         {"beta", options.beta}, {"covariance_ratio", options.covarianceRatio},
+                                         {"rows", rows}}
                               .dump(2)
                        << "\n";
     std::cerr << "wrote " << out << "\n";

@@ -19,31 +19,27 @@ void addMpiBand(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
     addBandFlags(*cmd, a->flags);
     cmd->footer("The same grids and metadata as gpisvdb band; the report adds an 'mpi' section.\n"
                 "Example:\n  mpirun -n 4 gpisvdb-mpi band bunny.obj -o bunny.vdb --sigma 1 --threads 1");
-    cmd->callback([&action, &ranks, a] {
-        action = [&ranks, a] {
-            const auto start = std::chrono::steady_clock::now();
-            const auto threads = limitThreads(a->flags.model.threads);
-            MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
-            const nlohmann::json mpiSection = mpiReport(ranks, run.band);
-            gatherWholeBand(ranks, run, a->flags);
-            const BandJob& job = run.job;
-            mpi::together(ranks, [&] {
-                if (ranks.rank != 0) return;
-                writeBandVdb(job.result.band, run.out->tempPath(), bandMetadata(job, a->flags), {}, {}, a->flags.vdb);
-                run.out->commit();
-                const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-                if (run.report) {
-                    nlohmann::json report = bandReport(job, a->flags);
-                    report["mpi"] = mpiSection;
-                    report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"total", total}};
-                    report["outputs"] = {a->output};
-                    commitReport(*run.report, report);
-                }
-                if (!a->flags.model.quiet)
-                    std::cerr << "band: " << job.result.band.size() << " voxels of size " << job.options.voxelSize
-                              << " on " << ranks.size << " ranks, mass " << job.result.band.mass() << ", " << total << " s\n";
-            });
-        };
+    onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) {
+        MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
+        const nlohmann::json mpiSection = mpiReport(ranks, run.band);
+        gatherWholeBand(ranks, run, a->flags);
+        const BandJob& job = run.job;
+        mpi::together(ranks, [&] {
+            if (ranks.rank != 0) return;
+            writeBandVdb(job.result.band, run.out->tempPath(), bandMetadata(job, a->flags), {}, {}, a->flags.vdb);
+            run.out->commit();
+            const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            if (run.report) {
+                nlohmann::json report = bandReport(job, a->flags);
+                report["mpi"] = mpiSection;
+                report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"total", total}};
+                report["outputs"] = {a->output};
+                commitReport(*run.report, report);
+            }
+            if (!a->flags.model.quiet)
+                std::cerr << "band: " << job.result.band.size() << " voxels of size " << job.options.voxelSize
+                          << " on " << ranks.size << " ranks, mass " << job.result.band.mass() << ", " << total << " s\n";
+        });
     });
 }
 

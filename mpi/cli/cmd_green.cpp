@@ -8,80 +8,88 @@
 
 namespace gpisvdb::cli {
 
-void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    auto* cmd = app.add_subcommand("green", "Green's function of the GPIS Laplacian (as gpisvdb green), solved across the MPI ranks by PETSc");
-    struct Args {
-        std::string input, output;
-        std::vector<double> source;
-        BandFlags flags;
-        PcgOptions solver;
-    };
-    auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, kInputHelp)->required();
-    cmd->add_option("--source", a->source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
+namespace {
+
+struct Args {
+    std::string input, output;
+    std::vector<double> source;
+    BandFlags flags;
+    PcgOptions solver;
+};
+
+/// The flags of `gpisvdb-mpi green`.
+void addFlags(CLI::App& cmd, Args& a) {
+    cmd.add_option("INPUT", a.input, kInputHelp)->required();
+    cmd.add_option("--source", a.source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
         ->required()
         ->delimiter(',')
         ->expected(3);
-    cmd->add_option("-o,--output", a->output, "output .vdb (band grids and 'green'; written by rank 0)")->required();
-    addBandFlags(*cmd, a->flags);
-    addSolverFlags(*cmd, a->solver, SolverFlags::Distributed);
+    cmd.add_option("-o,--output", a.output, "output .vdb (band grids and 'green'; written by rank 0)")->required();
+    addBandFlags(cmd, a.flags);
+    addSolverFlags(cmd, a.solver, SolverFlags::Distributed);
+}
+
+/// `gpisvdb-mpi green` once its flags are parsed, on every rank.
+void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
+    mpi::together(ranks, [&] {
+        if (a.source.size() != 3 || !Vec3d(a.source[0], a.source[1], a.source[2]).allFinite())
+            throw ParameterError("--source needs three finite numbers X,Y,Z");
+        checkPcgOptions(a.solver);
+    });
+    MpiBandCommand run = startMpiBandCommand(ranks, a.input, a.output, a.flags);
+    const BandJob& job = run.job;
+    const mpi::DistributedGreen g =
+        greensFunctionPetsc(ranks, run.band, Vec3d(a.source[0], a.source[1], a.source[2]), a.solver, run.progress);
+    PcgResult solve;
+    solve.iterations = g.iterations;
+    solve.relativeResidual = solve.floatResidual = g.relativeResidual;
+    solve.converged = g.converged;
+    solve.preconditioner = g.preconditioner;
+    mpi::together(ranks, [&] { requireConverged(solve, a.solver); });
+    const std::vector<float> values = mpi::gatherChannel(ranks, g.local);
+    const std::size_t ghosts = mpi::sum(ranks, g.ghosts);
+    const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
+    gatherWholeBand(ranks, run, a.flags);  // after the solve: rank 0 never holds both
+    mpi::together(ranks, [&] {
+        if (ranks.rank != 0) return;
+        const Band& band = job.result.band;
+        openvdb::MetaMap meta = bandMetadata(job, a.flags);
+        const openvdb::Coord y = band.coord[g.sourceIndex];
+        addGreenMetadata(meta, Vec3d(a.source[0], a.source[1], a.source[2]), y, solve);
+        writeBandVdb(band, run.out->tempPath(), meta, {{"green", &values}}, {}, a.flags.vdb);
+        run.out->commit();
+        const double total = std::chrono::duration<double>(Clock::now() - start).count();
+        if (run.report) {
+            nlohmann::json report = bandReport(job, a.flags);
+            report["solver"] = solverReport(solve, a.solver);
+            report["solver"]["method"] = std::string("PETSc CG, ") + preconditionerName(g.preconditioner) +
+                                         (g.preconditioner == Preconditioner::Multigrid ? " (hypre BoomerAMG)" : "");
+            report["mpi"] = mpiSection;
+            report["green"] = {{"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}},
+                               {"source_index", g.sourceIndex}};
+            report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand},
+                                   {"operators", g.assembleSeconds}, {"setup", g.setupSeconds},
+                                   {"solve", g.solveSeconds}, {"total", total}};
+            report["outputs"] = {a.output};
+            commitReport(*run.report, report);
+        }
+        if (!a.flags.model.quiet)
+            std::cerr << "green: " << band.size() << " voxels on " << ranks.size << " ranks, PETSc CG ("
+                      << preconditionerName(g.preconditioner) << ") " << g.iterations << " iterations to "
+                      << g.relativeResidual << ", " << total << " s\n";
+    });
+}
+
+}  // namespace
+
+void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
+    auto* cmd = app.add_subcommand("green", "Green's function of the GPIS Laplacian (as gpisvdb green), solved across the MPI ranks by PETSc");
+    auto a = std::make_shared<Args>();
+    addFlags(*cmd, *a);
     cmd->footer("Solves L f = M delta_y with PETSc's CG; the solver's settings can be overridden through PETSC_OPTIONS\n"
                 "(prefix green_, e.g. PETSC_OPTIONS='-green_pc_hypre_boomeramg_strong_threshold 0.6').\n"
                 "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --threads 1");
-    cmd->callback([&action, &ranks, a] {
-        action = [&ranks, a] {
-            using Clock = std::chrono::steady_clock;
-            const auto start = Clock::now();
-            const auto threads = limitThreads(a->flags.model.threads);
-            mpi::together(ranks, [&] {
-                if (a->source.size() != 3 || !Vec3d(a->source[0], a->source[1], a->source[2]).allFinite())
-                    throw ParameterError("--source needs three finite numbers X,Y,Z");
-                checkPcgOptions(a->solver);
-            });
-            MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
-            const BandJob& job = run.job;
-            const mpi::DistributedGreen g =
-                greensFunctionPetsc(ranks, run.band, Vec3d(a->source[0], a->source[1], a->source[2]), a->solver, run.progress);
-            PcgResult solve;
-            solve.iterations = g.iterations;
-            solve.relativeResidual = solve.floatResidual = g.relativeResidual;
-            solve.converged = g.converged;
-            solve.preconditioner = g.preconditioner;
-            mpi::together(ranks, [&] { requireConverged(solve, a->solver); });
-            const std::vector<float> values = mpi::gatherChannel(ranks, g.local);
-            const std::size_t ghosts = mpi::sum(ranks, g.ghosts);
-            const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
-            gatherWholeBand(ranks, run, a->flags);  // after the solve: rank 0 never holds both
-            mpi::together(ranks, [&] {
-                if (ranks.rank != 0) return;
-                const Band& band = job.result.band;
-                openvdb::MetaMap meta = bandMetadata(job, a->flags);
-                const openvdb::Coord y = band.coord[g.sourceIndex];
-                addGreenMetadata(meta, Vec3d(a->source[0], a->source[1], a->source[2]), y, solve);
-                writeBandVdb(band, run.out->tempPath(), meta, {{"green", &values}}, {}, a->flags.vdb);
-                run.out->commit();
-                const double total = std::chrono::duration<double>(Clock::now() - start).count();
-                if (run.report) {
-                    nlohmann::json report = bandReport(job, a->flags);
-                    report["solver"] = solverReport(solve, a->solver);
-                    report["solver"]["method"] = std::string("PETSc CG, ") + preconditionerName(g.preconditioner) +
-                                                 (g.preconditioner == Preconditioner::Multigrid ? " (hypre BoomerAMG)" : "");
-                    report["mpi"] = mpiSection;
-                    report["green"] = {{"source", a->source}, {"source_voxel", {y.x(), y.y(), y.z()}},
-                                       {"source_index", g.sourceIndex}};
-                    report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand},
-                                           {"operators", g.assembleSeconds}, {"setup", g.setupSeconds},
-                                           {"solve", g.solveSeconds}, {"total", total}};
-                    report["outputs"] = {a->output};
-                    commitReport(*run.report, report);
-                }
-                if (!a->flags.model.quiet)
-                    std::cerr << "green: " << band.size() << " voxels on " << ranks.size << " ranks, PETSc CG ("
-                              << preconditionerName(g.preconditioner) << ") " << g.iterations << " iterations to "
-                              << g.relativeResidual << ", " << total << " s\n";
-            });
-        };
-    });
+    onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) { execute(ranks, *a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -9,69 +9,77 @@
 
 namespace gpisvdb::cli {
 
+namespace {
+
+struct Args {
+    std::string input, output;
+    BandFlags flags;
+    EigenOptions eigen;
+};
+
+/// The flags of `gpisvdb-mpi spectrum`.
+void addFlags(CLI::App& cmd, Args& a) {
+    cmd.add_option("INPUT", a.input, kInputHelp)->required();
+    cmd.add_option("-o,--output", a.output, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)")->required();
+    addEigenFlags(cmd, a.eigen);
+    addBandFlags(cmd, a.flags);
+}
+
+/// `gpisvdb-mpi spectrum` once its flags are parsed, on every rank.
+void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
+    mpi::together(ranks, [&] {
+        if (a.eigen.count < 1) throw ParameterError("-k must be >= 1");
+    });
+    MpiBandCommand run = startMpiBandCommand(ranks, a.input, a.output, a.flags);
+    const BandJob& job = run.job;
+    const mpi::DistributedSpectrum s = mpi::spectrumSlepc(ranks, run.band, a.eigen, run.progress);
+    std::vector<std::vector<float>> vectors;
+    for (const std::vector<double>& v : s.local) {
+        const std::vector<double> all = mpi::gatherChannel(ranks, v);
+        vectors.emplace_back(all.begin(), all.end());  // float grids, as gpisvdb spectrum writes them
+    }
+    const std::size_t ghosts = mpi::sum(ranks, s.ghosts);
+    const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
+    gatherWholeBand(ranks, run, a.flags);  // after the solve: rank 0 never holds both
+    mpi::together(ranks, [&] {
+        if (ranks.rank != 0) return;
+        const Band& band = job.result.band;
+        std::vector<NamedChannel> grids;
+        for (std::size_t i = 0; i < vectors.size(); ++i) grids.push_back({eigenGridName(int(i)), &vectors[i]});
+        openvdb::MetaMap meta = bandMetadata(job, a.flags);
+        for (Eigen::Index i = 0; i < s.values.size(); ++i)
+            meta.insertMeta(eigenGridName(int(i)) + "_eigenvalue", openvdb::DoubleMetadata(s.values(i)));
+        meta.insertMeta("spectrum_max_residual", openvdb::DoubleMetadata(s.residuals.maxCoeff()));
+        writeBandVdb(band, run.out->tempPath(), meta, grids, {}, a.flags.vdb);
+        run.out->commit();
+        const double total = std::chrono::duration<double>(Clock::now() - start).count();
+        if (run.report) {
+            nlohmann::json report = bandReport(job, a.flags);
+            report["spectrum"] = slepcSpectrumReport(s);
+            report["mpi"] = mpiSection;
+            report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand},
+                                   {"operators", s.assembleSeconds}, {"solve", s.solveSeconds}, {"total", total}};
+            report["outputs"] = {a.output};
+            commitReport(*run.report, report);
+        }
+        if (!a.flags.model.quiet)
+            std::cerr << "spectrum: " << band.size() << " voxels on " << ranks.size << " ranks, "
+                      << s.values.size() << " eigenpairs, lambda " << s.values(0) << " ... "
+                      << s.values(s.values.size() - 1) << ", max residual " << s.residuals.maxCoeff() << ", "
+                      << total << " s\n";
+    });
+}
+
+}  // namespace
+
 void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
     auto* cmd = app.add_subcommand("spectrum", "lowest eigenpairs of the GPIS Laplacian (as gpisvdb spectrum), solved across the MPI ranks by SLEPc");
-    struct Args {
-        std::string input, output;
-        BandFlags flags;
-        EigenOptions eigen;
-    };
     auto a = std::make_shared<Args>();
-    cmd->add_option("INPUT", a->input, kInputHelp)->required();
-    cmd->add_option("-o,--output", a->output, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)")->required();
-    addEigenFlags(*cmd, a->eigen);
-    addBandFlags(*cmd, a->flags);
+    addFlags(*cmd, *a);
     cmd->footer("lanczos: SLEPc Krylov-Schur on L^-1 M, L factored by MUMPS (auto up to 1e6 voxels); lobpcg: SLEPc LOBPCG\n"
                 "preconditioned by hypre BoomerAMG. PETSC_OPTIONS overrides the solver's settings (prefix spectrum_).\n"
                 "Example:\n  mpirun -n 4 gpisvdb-mpi spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --threads 1");
-    cmd->callback([&action, &ranks, a] {
-        action = [&ranks, a] {
-            using Clock = std::chrono::steady_clock;
-            const auto start = Clock::now();
-            const auto threads = limitThreads(a->flags.model.threads);
-            mpi::together(ranks, [&] {
-                if (a->eigen.count < 1) throw ParameterError("-k must be >= 1");
-            });
-            MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
-            const BandJob& job = run.job;
-            const mpi::DistributedSpectrum s = mpi::spectrumSlepc(ranks, run.band, a->eigen, run.progress);
-            std::vector<std::vector<float>> vectors;
-            for (const std::vector<double>& v : s.local) {
-                const std::vector<double> all = mpi::gatherChannel(ranks, v);
-                vectors.emplace_back(all.begin(), all.end());  // float grids, as gpisvdb spectrum writes them
-            }
-            const std::size_t ghosts = mpi::sum(ranks, s.ghosts);
-            const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});
-            gatherWholeBand(ranks, run, a->flags);  // after the solve: rank 0 never holds both
-            mpi::together(ranks, [&] {
-                if (ranks.rank != 0) return;
-                const Band& band = job.result.band;
-                std::vector<NamedChannel> grids;
-                for (std::size_t i = 0; i < vectors.size(); ++i) grids.push_back({eigenGridName(int(i)), &vectors[i]});
-                openvdb::MetaMap meta = bandMetadata(job, a->flags);
-                for (Eigen::Index i = 0; i < s.values.size(); ++i)
-                    meta.insertMeta(eigenGridName(int(i)) + "_eigenvalue", openvdb::DoubleMetadata(s.values(i)));
-                meta.insertMeta("spectrum_max_residual", openvdb::DoubleMetadata(s.residuals.maxCoeff()));
-                writeBandVdb(band, run.out->tempPath(), meta, grids, {}, a->flags.vdb);
-                run.out->commit();
-                const double total = std::chrono::duration<double>(Clock::now() - start).count();
-                if (run.report) {
-                    nlohmann::json report = bandReport(job, a->flags);
-                    report["spectrum"] = slepcSpectrumReport(s);
-                    report["mpi"] = mpiSection;
-                    report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand},
-                                           {"operators", s.assembleSeconds}, {"solve", s.solveSeconds}, {"total", total}};
-                    report["outputs"] = {a->output};
-                    commitReport(*run.report, report);
-                }
-                if (!a->flags.model.quiet)
-                    std::cerr << "spectrum: " << band.size() << " voxels on " << ranks.size << " ranks, "
-                              << s.values.size() << " eigenpairs, lambda " << s.values(0) << " ... "
-                              << s.values(s.values.size() - 1) << ", max residual " << s.residuals.maxCoeff() << ", "
-                              << total << " s\n";
-            });
-        };
-    });
+    onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) { execute(ranks, *a, start); });
 }
 
 }  // namespace gpisvdb::cli
