@@ -438,6 +438,46 @@ TEST_CASE("cli: band writes a readable .vdb and a JSON report whose values match
     CHECK_FALSE(readFloatGrid(vdb, "selling_weight_0"));  // only with --stencils
 }
 
+TEST_CASE("cli: band flips an inside-out mesh's normals, says so, and builds the outward mesh's band", "[cli]") {
+    // The bunny with every face's winding reversed: its normals point inward, and without the flip the default
+    // surface gamma = 1/2 would not exist (docs/math.md#orientation).
+    const std::string insideOut = temp("bunny_inside_out.obj");
+    {
+        std::ifstream in(gpisvdb::test::dataPath("bunny.obj"));
+        std::ofstream out(insideOut);
+        for (std::string line; std::getline(in, line);) {
+            std::istringstream words(line);
+            std::string tag, a, b, c;
+            words >> tag;
+            if (tag == "f" && (words >> a >> b >> c)) out << "f " << a << " " << c << " " << b << "\n";
+            else out << line << "\n";
+        }
+    }
+    std::map<std::string, nlohmann::json> reports;
+    std::map<std::string, std::string> errs;
+    for (const std::string& input : {gpisvdb::test::dataPath("bunny.obj"), insideOut}) {
+        const std::string vdb = temp("orientation.vdb"), json = temp("orientation.json");
+        const Run r = run("band " + input + " -o " + vdb + " --report " + json + " --sigma 2 --voxel-size 0.4 --threads 2");
+        INFO(r.err);
+        REQUIRE(r.code == 0);
+        std::ifstream in(json);
+        reports[input] = nlohmann::json::parse(in);
+        errs[input] = r.err;
+        openvdb::initialize();
+        openvdb::io::File file(vdb);
+        file.open();
+        CHECK(file.getMetadata()->metaValue<bool>("normals_flipped") == (input == insideOut));
+    }
+    const nlohmann::json& outward = reports[gpisvdb::test::dataPath("bunny.obj")];
+    const nlohmann::json& flipped = reports[insideOut];
+    CHECK_FALSE(outward["input"]["normals_flipped"].get<bool>());
+    CHECK(flipped["input"]["normals_flipped"].get<bool>());
+    CHECK_THAT(errs[insideOut], Catch::Contains("normals point inward"));
+    CHECK_THAT(errs[gpisvdb::test::dataPath("bunny.obj")], !Catch::Contains("normals point inward"));
+    CHECK(flipped["band"]["voxels"] == outward["band"]["voxels"]);
+    CHECK(flipped["band"]["mass"].get<double>() == Approx(outward["band"]["mass"].get<double>()).epsilon(1e-6));
+}
+
 TEST_CASE("cli: band writes the occupancy as a fog grid named by --fog-name, and NanoVDB for an .nvdb output", "[cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), flags = " --sigma 2 --voxel-size 0.4 --quiet";
     const std::string vdb = temp("fog.vdb"), nvdb = temp("fog.nvdb"), named = temp("fog_named.vdb");

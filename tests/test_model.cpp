@@ -10,6 +10,7 @@
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/model/direct_gpis.h"
+#include "gpisvdb/model/load_model.h"
 #include "helpers.h"
 #include "gpisvdb/model/accuracy.h"
 #include <tbb/global_control.h>
@@ -487,4 +488,59 @@ TEST_CASE("model: the linearised covariance matches Monte-Carlo over perturbed v
             }
         }
     }
+}
+
+TEST_CASE("model: inward normals are flipped, so that the surface is gamma = 1/2 whatever the input's orientation", "[model]") {
+    // A soup inside out (each triangle's winding reversed) and a cloud with inward normals, against the same inputs
+    // oriented outward: the winding number at the samples is -1/2 before the flip, and after it the samples and the
+    // field are the outward input's (up to the rounding of a centroid summed in another order).
+    const TriangleSoup outwardSoup = icosphere(3);
+    TriangleSoup inwardSoup = outwardSoup;
+    for (auto& t : inwardSoup.triangles) std::swap(t[1], t[2]);
+    PointCloud outwardCloud;
+    std::mt19937_64 rng(3);
+    std::normal_distribution<double> g;
+    for (int i = 0; i < 2000; ++i) {
+        const Vec3d d = Vec3d(g(rng), g(rng), g(rng)).normalized();
+        outwardCloud.positions.push_back(d);
+        outwardCloud.normals.push_back(d);
+    }
+    PointCloud inwardCloud = outwardCloud;
+    for (Vec3d& n : inwardCloud.normals) n = -n;
+    const std::vector<Vec3d> probes = {Vec3d(0, 0, 0), Vec3d(0.3, -0.2, 0.1), Vec3d(1.5, 0, 0), Vec3d(0, 0.98, 0.1)};
+    for (const bool soup : {true, false}) {
+        InputData outward, inward;
+        if (soup) outward.soup = outwardSoup, inward.soup = inwardSoup;
+        else outward.cloud = outwardCloud, inward.cloud = inwardCloud;
+        INFO((soup ? "soup" : "cloud"));
+        const LoadedModel a = loadModel(outward), b = loadModel(inward);
+        ModelOptions keep;
+        keep.orientOutward = false;
+        const LoadedModel c = loadModel(inward, keep);
+        CHECK_FALSE(a.input.normalsFlipped);
+        CHECK(b.input.normalsFlipped);
+        CHECK_FALSE(c.input.normalsFlipped);
+        CHECK(medianGammaAtSamples(*a.model, a.input.samples) == Approx(0.5).margin(0.05));
+        CHECK(medianGammaAtSamples(*c.model, c.input.samples) == Approx(-0.5).margin(0.05));
+        REQUIRE(b.input.samples.size() == a.input.samples.size());
+        for (std::size_t i = 0; i < a.input.samples.size(); ++i) {
+            CHECK((b.input.samples.normal[i] - a.input.samples.normal[i]).norm() <= 1e-12 * a.input.samples.normal[i].norm());
+            CHECK(b.input.samples.normalCovariance[i].trace() == Approx(a.input.samples.normalCovariance[i].trace()).epsilon(1e-12));
+        }
+        for (const Vec3d& x : probes) {
+            const ValueGradient va = a.model->evaluate(x), vb = b.model->evaluate(x), vc = c.model->evaluate(x);
+            CHECK(vb.mean[0] == Approx(va.mean[0]).margin(1e-9));
+            CHECK(vc.mean[0] == Approx(-va.mean[0]).margin(1e-9));
+            CHECK(vb.cov(0, 0) == Approx(va.cov(0, 0)).epsilon(1e-9));
+        }
+    }
+    // The regression model's generated labels follow the flipped normals too: inside is the enclosed side (phi > 0).
+    ModelOptions regression;
+    regression.kind = ModelKind::Regression;
+    InputData inward;
+    inward.soup = inwardSoup;
+    const LoadedModel r = loadModel(inward, regression);
+    CHECK(r.input.normalsFlipped);
+    CHECK(r.model->evaluate(Vec3d(0, 0, 0)).mean[0] > 0);
+    CHECK(r.model->evaluate(Vec3d(2, 0, 0)).mean[0] < 0);
 }

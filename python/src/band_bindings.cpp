@@ -80,7 +80,8 @@ py::dict bandReport(const PyBand& b) {
     const openvdb::CoordBBox bb = band.bbox();
     const ModelOptions& mo = b.modelOptions;
     py::dict input("source"_a = b.source, "samples"_a = in.samples.size(), "length_scale"_a = in.samples.lengthScale,
-                   "kind"_a = in.isSoup ? "triangle soup" : "oriented point cloud", "skipped_zero_area"_a = in.degenerateSkipped);
+                   "kind"_a = in.isSoup ? "triangle soup" : "oriented point cloud", "skipped_zero_area"_a = in.degenerateSkipped,
+                   "normals_flipped"_a = in.normalsFlipped);
     py::dict parameters(
         "sigma_rel"_a = mo.sigmaRel, "sigma"_a = in.sigma, "smoothing_rel"_a = mo.smoothingRel, "smoothing"_a = b.model->smoothing,
         "noise_smoothing"_a = mo.noiseSmoothing, "smoothing_set_by"_a = smoothingSourceName(b.model->smoothingSource),

@@ -72,6 +72,8 @@ Model makeModel(InputData data, const ModelOptions& options, int threads) {
     m.options = options;
     m.source = data.path;
     m.loaded = work([&](const Progress&) { return std::make_shared<const LoadedModel>(loadModel(data, options)); });
+    if (m.loaded->input.normalsFlipped && PyErr_WarnEx(PyExc_UserWarning, kNormalsFlippedNote, 1) != 0)
+        throw py::error_already_set();  // warnings turned into errors
     return m;
 }
 
@@ -314,6 +316,8 @@ The same numbers as `gpisvdb evaluate`'s CSV.)doc")
         .def_property_readonly("skipped", [](const Model& m) { return m.loaded->input.degenerateSkipped; },
                                "zero-area triangles left out")
         .def_property_readonly("is_soup", [](const Model& m) { return m.loaded->input.isSoup; })
+        .def_property_readonly("normals_flipped", [](const Model& m) { return m.loaded->input.normalsFlipped; },
+                               "the input's normals pointed inward and were flipped (docs/math.md#orientation)")
         .def_property_readonly("kind", [](const Model& m) { return m.options.kind == ModelKind::Regression ? "regression" : "winding"; })
         .def_property_readonly("iso", [](const Model& m) { return m.loaded->model->naturalIso(); },
                                "the model's own surface level u (0.5 winding, 0 regression)")

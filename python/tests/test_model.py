@@ -69,6 +69,17 @@ def test_model_properties_are_in_world_units(model, sphere):
     assert model.iso == 0.5 and model.kind == "winding" and model.is_soup
 
 
+def test_inside_out_input_is_flipped_with_a_warning(sphere):
+    V, F = sphere
+    points = np.array([[0.0, 0.0, 0.0], [0.3, -0.2, 1.1], [2.0, 0.0, 0.0]])
+    outward = gpisvdb.Model(V, F)
+    with pytest.warns(UserWarning, match="normals point inward"):
+        inward = gpisvdb.Model(V, F[:, [0, 2, 1]])
+    assert inward.normals_flipped and not outward.normals_flipped
+    np.testing.assert_allclose(inward.evaluate(points)["mean"], outward.evaluate(points)["mean"], atol=1e-9)
+    assert inward.evaluate(points)["p_inside"][0] > 0.99  # the inside is the enclosed side
+
+
 def test_input_conversions_give_the_same_model(sphere):
     V, F = sphere
     points = np.array([[0.0, 0.0, 0.9], [0.3, -0.2, 1.1]])

@@ -109,6 +109,7 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
     job.bandBytesPerVoxel = job.result.band.bytesPerVoxel();
     job.warnings = bandWarnings(job, flags);
     if (!flags.model.quiet) {
+        if (job.model.input.normalsFlipped) std::cerr << "note: " << kNormalsFlippedNote << "\n";
         if (job.budgeted)
             std::cerr << "note: the band-voxel budget (--max-voxels " << std::llround(job.maxBandVoxels)
                       << ") set the voxel size: the accuracy-driven " << numberText(job.accuracyVoxelSize) << " would make about "
@@ -238,7 +239,7 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
     return {
         {"input", {{"path", job.inputPath}, {"samples", in.samples.size()}, {"length_scale", in.samples.lengthScale},
                    {"kind", in.isSoup ? "triangle soup" : "oriented point cloud"},
-                   {"skipped_zero_area", in.degenerateSkipped}}},
+                   {"skipped_zero_area", in.degenerateSkipped}, {"normals_flipped", in.normalsFlipped}}},
         {"parameters", {{"sigma_rel", flags.model.sigmaRel}, {"sigma", in.sigma},
                         {"smoothing_rel", flags.model.smoothingRel}, {"smoothing", job.model.smoothing},
                         {"noise_smoothing", flags.model.noiseSmoothing},

@@ -47,6 +47,7 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
                 {"accuracy_voxel_size", plan.accuracyVoxelSize}, {"accuracy_voxels", plan.accuracyVoxels},
                 {"max_band_voxels", plan.maxBandVoxels}, {"mu_width", plan.resolution.muWidth},
                 {"voxel_size_note", voxelSizeNote(plan)}, {"smoothing", model.smoothing},
+                {"normals_flipped", model.input.normalsFlipped},
                 {"smoothing_set_by", smoothingSourceName(model.smoothingSource)},
                 {"voxels", f.voxels}, {"evaluated_voxels", f.evaluated}, {"peak_bytes", peak},
                 {"model_peak_bytes", modelPeak}, {"band_peak_bytes", f.peakBytes},
@@ -56,6 +57,7 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
     const auto millions = [](double n) { return numberText(std::round(n / 1e3) / 1e3) + " M"; };
     std::cout << "default band (what `gpisvdb band` with these flags would build; a forecast, docs/band.md#forecast):\n"
               << "  " << voxelSizeNote(plan) << "\n";
+    if (model.input.normalsFlipped) std::cout << "  normals:     " << kNormalsFlippedNote << "\n";
     if (plan.budgeted)
         std::cout << "  budget:      the band-voxel budget (--max-voxels " << std::llround(plan.maxBandVoxels)
                   << ") set the voxel size; accuracy alone asks " << numberText(plan.accuracyVoxelSize) << " for about "

@@ -12,6 +12,7 @@ openvdb::MetaMap bandMetadata(const BandProvenance& provenance, const ModelOptio
     meta.insertMeta("command_line", openvdb::StringMetadata(provenance.commandLine));
     meta.insertMeta("input", openvdb::StringMetadata(provenance.input));
     meta.insertMeta("input_samples", openvdb::Int64Metadata(openvdb::Int64(in.samples.size())));
+    meta.insertMeta("normals_flipped", openvdb::BoolMetadata(in.normalsFlipped));
     meta.insertMeta("length_scale", openvdb::DoubleMetadata(in.samples.lengthScale));
     meta.insertMeta("sigma_rel", openvdb::DoubleMetadata(modelOptions.sigmaRel));
     meta.insertMeta("sigma", openvdb::DoubleMetadata(in.sigma));

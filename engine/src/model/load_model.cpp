@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <vector>
 
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/model/direct_gpis.h"
@@ -14,6 +16,36 @@ double medianPositionStd(const Samples& samples) {
     std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
     return std::sqrt(std::max(0.0, v[v.size() / 2]));
 }
+
+double medianGammaAtSamples(const GpisModel& winding, const Samples& samples) {
+    const std::size_t n = samples.size(), step = std::max<std::size_t>(1, (n + kOrientationSamples - 1) / kOrientationSamples);
+    std::vector<Vec3d> xs;
+    for (std::size_t i = 0; i < n; i += step) xs.push_back(samples.position[i]);
+    if (xs.empty()) return 0.0;
+    const std::vector<ValueGradient> values = winding.evaluate(xs);
+    std::vector<double> gamma(values.size());
+    for (std::size_t i = 0; i < values.size(); ++i) gamma[i] = values[i].mean[0];
+    std::nth_element(gamma.begin(), gamma.begin() + long(gamma.size() / 2), gamma.end());
+    return gamma[gamma.size() / 2];
+}
+
+namespace {
+
+std::unique_ptr<GpisModel> windingModel(const Samples& samples, double s, const ModelOptions& options) {
+    if (options.exact) return std::make_unique<DirectGpis>(samples, s);
+    return std::make_unique<BarnesHutGpis>(samples, s, options.barnesHut);
+}
+
+/// Flips the normals of inward samples (medianGammaAtSamples < 0), given a winding model of them; true if it did.
+/// The normals' covariance Σ' is unchanged (the noise of −w is that of w).
+bool orientOutward(InputSamples& input, const GpisModel& winding) {
+    if (!(medianGammaAtSamples(winding, input.samples) < 0)) return false;
+    for (Vec3d& w : input.samples.normal) w = -w;
+    input.normalsFlipped = true;
+    return true;
+}
+
+}  // namespace
 
 LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
     if (!(options.smoothingRel > 0) || !std::isfinite(options.smoothingRel))
@@ -32,6 +64,9 @@ LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
     if (options.kind == ModelKind::Winding && m.input.absoluteNoise && fromNoise > m.smoothing)
         m.smoothing = fromNoise, m.smoothingSource = SmoothingSource::Noise;
     if (options.kind == ModelKind::Regression) {
+        // === Orientation: the generated labels' inside and outside follow the normals
+        if (options.orientOutward && !options.labels)
+            orientOutward(m.input, *windingModel(m.input.samples, m.smoothing, options));
         // Labels generated from the samples, or given; the kernel smoothing relative to the training spacing, as
         // the winding model's is to ℓ.
         double spacing = 0;
@@ -43,10 +78,10 @@ LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
         m.smoothing = ro.smoothing;
         m.trainingSize = training.size();
         m.model = std::make_unique<RegressionGpis>(std::move(training), ro);
-    } else if (options.exact) {
-        m.model = std::make_unique<DirectGpis>(m.input.samples, m.smoothing);
     } else {
-        m.model = std::make_unique<BarnesHutGpis>(m.input.samples, m.smoothing, options.barnesHut);
+        m.model = windingModel(m.input.samples, m.smoothing, options);
+        // === Orientation: inward normals flipped, the model built again on them (docs/math.md#orientation)
+        if (options.orientOutward && orientOutward(m.input, *m.model)) m.model = windingModel(m.input.samples, m.smoothing, options);
     }
     return m;
 }
@@ -65,8 +100,7 @@ LoadedModel withSmoothing(const LoadedModel& model, const ModelOptions& options,
     m.input = model.input;
     m.smoothing = s;
     m.smoothingSource = source;
-    if (options.exact) m.model = std::make_unique<DirectGpis>(m.input.samples, s);
-    else m.model = std::make_unique<BarnesHutGpis>(m.input.samples, s, options.barnesHut);
+    m.model = windingModel(m.input.samples, s, options);
     return m;
 }
 

@@ -39,6 +39,8 @@ struct InputSamples {
     bool isSoup = false;
     bool absoluteNoise = false;         ///< a cloud with its own σ per point (world units), not σ = sigmaRel·ℓ
     bool lengthScaleGiven = false;      ///< ℓ came with the input (a .gdp written by gpisvdb), not from its geometry
+    bool normalsFlipped = false;        ///< the input's normals pointed inward and were flipped (loadModel,
+                                        ///< ModelOptions::orientOutward; docs/math.md#orientation)
 };
 
 /// Samples of either kind of input with its noise model.

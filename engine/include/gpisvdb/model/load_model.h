@@ -38,6 +38,9 @@ struct ModelOptions {
     TrainingOptions training;          ///< regression: labels generated from the input (when `labels` is empty)
     std::optional<LabelledPoints> labels;  ///< regression: the training labels; empty: generated from the input
     double labelNoise = RegressionGpisOptions{}.labelNoise;  ///< regression: std of the labels (≥ 0)
+    /// Flip the input's normals when they point inward: the winding number's median at the samples is −1/2 there
+    /// instead of +1/2, and the default surface γ = 1/2 would not exist (docs/math.md#orientation).
+    bool orientOutward = true;
 };
 
 /// Which term set a winding model's s (docs/math.md#smoothing).
@@ -59,8 +62,17 @@ struct LoadedModel {
 /// σ_p: the median over the samples of their position std √v_i, world units.
 double medianPositionStd(const Samples& samples);
 
-/// The input's samples with σ = sigmaRel·ℓ, then the model (winding: s = smoothingRel·ℓ, or noiseSmoothing·σ_p where
-/// that is larger and the cloud gives its own σ). Throws ParameterError naming the ModelOptions (or the
+/// The median of a winding model's mean γ at up to kOrientationSamples of the samples (every k-th): +1/2 where the
+/// samples' normals point outward, −1/2 where they point inward (docs/math.md#orientation).
+double medianGammaAtSamples(const GpisModel& winding, const Samples& samples);
+constexpr std::size_t kOrientationSamples = 1024;
+/// What the front ends say when loadModel flipped the normals.
+constexpr const char* kNormalsFlippedNote =
+    "the input's normals point inward (the winding number is about -1/2 at its samples): flipped, so that the surface "
+    "is gamma = 1/2 and the inside is the side they enclose (docs/math.md#orientation)";
+
+/// The input's samples with σ = sigmaRel·ℓ, their normals flipped if they point inward (orientOutward), then the model
+/// (winding: s = smoothingRel·ℓ, or noiseSmoothing·σ_p where that is larger and the cloud gives its own σ). Throws ParameterError naming the ModelOptions (or the
 /// noise options') field on a bad parameter, InputError on unusable input.
 LoadedModel loadModel(const InputData& data, const ModelOptions& options = {});
 
