@@ -48,8 +48,10 @@ void gatherWholeBand(const mpi::Ranks& ranks, MpiBandCommand& c, const BandFlags
     if (!keepLocal) c.band.local = Band();
     if (ranks.rank == 0) {
         c.job.warnings = bandWarnings(c.job, flags);
-        if (!flags.model.quiet)
+        if (!flags.model.quiet) {
+            if (c.job.model.input.normalsFlipped) std::cerr << "note: " << kNormalsFlippedNote << "\n";
             for (const std::string& w : c.job.warnings) std::cerr << "warning: " << w << "\n";
+        }
     }
 }
 
