@@ -80,8 +80,12 @@ LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
         m.model = std::make_unique<RegressionGpis>(std::move(training), ro);
     } else {
         m.model = windingModel(m.input.samples, m.smoothing, options);
-        // === Orientation: inward normals flipped, the model built again on them (docs/math.md#orientation)
-        if (options.orientOutward && orientOutward(m.input, *m.model)) m.model = windingModel(m.input.samples, m.smoothing, options);
+        // === Orientation: inward normals flipped, the model built again on them (docs/math.md#orientation); the
+        //     first tree is freed before the second is built, so the peak is one tree's
+        if (options.orientOutward && orientOutward(m.input, *m.model)) {
+            m.model.reset();
+            m.model = windingModel(m.input.samples, m.smoothing, options);
+        }
     }
     return m;
 }
