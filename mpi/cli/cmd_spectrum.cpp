@@ -11,22 +11,8 @@ namespace gpisvdb::cli {
 
 namespace {
 
-struct Args {
-    std::string input, output;
-    BandFlags flags;
-    EigenOptions eigen;
-};
-
-/// The flags of `gpisvdb-mpi spectrum`.
-void addFlags(CLI::App& cmd, Args& a) {
-    cmd.add_option("INPUT", a.input, kInputHelp)->required();
-    cmd.add_option("-o,--output", a.output, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)")->required();
-    addEigenFlags(cmd, a.eigen);
-    addBandFlags(cmd, a.flags);
-}
-
 /// `gpisvdb-mpi spectrum` once its flags are parsed, on every rank.
-void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
+void execute(const mpi::Ranks& ranks, SpectrumArgs& a, Clock::time_point start) {
     mpi::together(ranks, [&] {
         if (a.eigen.count < 1) throw ParameterError("-k must be >= 1");
     });
@@ -74,8 +60,8 @@ void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
 
 void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
     auto* cmd = app.add_subcommand("spectrum", "lowest eigenpairs of the GPIS Laplacian (as gpisvdb spectrum), solved across the MPI ranks by SLEPc");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
+    auto a = std::make_shared<SpectrumArgs>();
+    addSpectrumFlags(*cmd, *a, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)");
     cmd->footer("lanczos: SLEPc Krylov-Schur on L^-1 M, L factored by MUMPS (auto up to 1e6 voxels); lobpcg: SLEPc LOBPCG\n"
                 "preconditioned by hypre BoomerAMG. PETSC_OPTIONS overrides the solver's settings (prefix spectrum_).\n"
                 "Example:\n  mpirun -n 4 gpisvdb-mpi spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --threads 1");

@@ -12,22 +12,8 @@ namespace gpisvdb::cli {
 
 namespace {
 
-struct Args {
-    std::string input, output;
-    BandFlags flags;
-    EigenOptions eigen;
-};
-
-/// The flags of `gpisvdb spectrum`.
-void addFlags(CLI::App& cmd, Args& a) {
-    cmd.add_option("INPUT", a.input, kInputHelp)->required();
-    cmd.add_option("-o,--output", a.output, "output .vdb (band grids and eigen_000, eigen_001, ...)")->required();
-    addEigenFlags(cmd, a.eigen);
-    addBandFlags(cmd, a.flags);
-}
-
 /// `gpisvdb spectrum` once its flags are parsed.
-void execute(Args& a, Clock::time_point start) {
+void execute(SpectrumArgs& a, Clock::time_point start) {
     if (a.eigen.count < 1) throw ParameterError("-k must be >= 1");
     BandCommand run = startBandCommand(a.input, a.output, a.flags);
     const BandJob& job = run.job;
@@ -69,8 +55,8 @@ void execute(Args& a, Clock::time_point start) {
 
 void addSpectrum(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("spectrum", "lowest eigenpairs of the GPIS Laplacian (L u = lambda M u), as a .vdb");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
+    auto a = std::make_shared<SpectrumArgs>();
+    addSpectrumFlags(*cmd, *a, "output .vdb (band grids and eigen_000, eigen_001, ...)");
     cmd->footer("Eigenvectors are M-orthonormal (sum of u_i u_j mu h^3 = delta_ij), u = 0 outside the band; eigenvalues\n"
                 "(world units^-2) ascending in the report (spectrum.eigenvalues, spectrum.residuals) and the file metadata.\n"
                 "Example:\n  gpisvdb spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --report spectrum.json");

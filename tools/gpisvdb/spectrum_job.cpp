@@ -21,6 +21,13 @@ void addEigenFlags(CLI::App& cmd, EigenOptions& o) {
             {"auto", EigenMethod::Automatic}, {"lanczos", EigenMethod::ShiftInvert}, {"lobpcg", EigenMethod::Lobpcg}}));
 }
 
+void addSpectrumFlags(CLI::App& cmd, SpectrumArgs& a, const std::string& outputHelp) {
+    cmd.add_option("INPUT", a.input, kInputHelp)->required();
+    cmd.add_option("-o,--output", a.output, outputHelp)->required();
+    addEigenFlags(cmd, a.eigen);
+    addBandFlags(cmd, a.flags);
+}
+
 std::string eigenGridName(int i) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "eigen_%03d", i);

@@ -11,6 +11,15 @@ namespace gpisvdb::cli {
 /// -k, --subspace, --eigen-tolerance, --max-restarts.
 void addEigenFlags(CLI::App& cmd, EigenOptions& options);
 
+/// `spectrum`'s flags, gpisvdb's and gpisvdb-mpi's alike.
+struct SpectrumArgs {
+    std::string input, output;
+    BandFlags flags;
+    EigenOptions eigen;
+};
+/// INPUT, -o (described by `outputHelp`), the eigen solver's flags and the band's.
+void addSpectrumFlags(CLI::App& cmd, SpectrumArgs& a, const std::string& outputHelp);
+
 /// "eigen_000", "eigen_001", … (more digits past 999): the grid of eigenvector i.
 std::string eigenGridName(int i);
 
