@@ -18,7 +18,6 @@ namespace gpisvdb::cli {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 /// Documented accuracy limits (docs/band.md#warnings).

@@ -34,7 +34,6 @@ namespace gpisvdb::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 // === The built-in input: torus (ring 1, tube 0.4) without the slab x > 0, |y| < 0.3

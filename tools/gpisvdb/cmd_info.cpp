@@ -15,7 +15,6 @@ namespace gpisvdb::cli {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 /// The model loaded and the band planned as `gpisvdb band` does (both timed), then the pilot. A band that the memory

@@ -58,7 +58,6 @@ GeodesicRequest geodesicRequest(const GeodesicArgs& a, bool openPaths) {
 void finishGeodesic(const BandJob& job, const GeodesicArgs& args, GeodesicRequest& request, AtomicOutput& out,
                     AtomicOutput* report, const Progress& progress, std::chrono::steady_clock::time_point start,
                     const nlohmann::json& extra) {
-    using Clock = std::chrono::steady_clock;
     const Band& band = job.result.band;
     // === U by fast marching, paths by backtracking
     const auto tSolve = Clock::now();

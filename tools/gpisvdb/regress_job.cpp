@@ -74,7 +74,6 @@ void finishRegress(const BandJob& job, const RegressArgs& args, const Regression
                    const EigenResult& e, const nlohmann::json& spectrumStage, double secondsSpectrum, AtomicOutput& out,
                    AtomicOutput* report, const Progress& progress, std::chrono::steady_clock::time_point start,
                    const nlohmann::json& extra) {
-    using Clock = std::chrono::steady_clock;
     const Band& band = job.result.band;
     // The regression's own vectors beside the eigenpairs, estimated again now that they are held (the command
     // refused it before the eigen solver ran: estimateRegression), and measured over them (docs/memory.md#regression)
