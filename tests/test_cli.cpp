@@ -1409,6 +1409,32 @@ TEST_CASE("cli: the band-voxel budget sets the default voxel size and says so, a
     CHECK_FALSE(fs::exists(refused));
 }
 
+TEST_CASE("cli: spectrum and regress default to the eigen solvers' band-voxel budget, and --max-voxels still wins", "[cli]") {
+    // The same dense cloud as above: its accuracy-driven band holds ≈ 8e5 voxels, so the eigen solvers' budget
+    // (kEigenMaxBandVoxels, 3e5) sets h. Lanczos' factor of a 3e5-voxel band needs ≈ 1 GB: under --max-memory 250M
+    // the command stops there, after the band and its note (a quick check of the default, not a slow solve).
+    const std::string cloud = sphereCloud("eigen_budget_cloud.xyz", 4000, 0.02);
+    const std::string vdb = temp("eigen_budget.vdb"), json = temp("eigen_budget.json");
+    Run r = run("spectrum " + cloud + " -k 4 --eigen-method lanczos --max-memory 250M -o " + vdb);
+    INFO(r.err);
+    CHECK(r.code == 1);
+    CHECK_THAT(r.err, Catch::Contains("note: the band-voxel budget (--max-voxels 300000, the default of commands that solve "
+                                      "for eigenpairs, docs/spectrum.md#budget) set the voxel size"));
+    CHECK_FALSE(fs::exists(vdb));
+    // A budget given is the budget used, named as given.
+    r = run("spectrum " + cloud + " -k 4 --max-voxels 20000 -o " + vdb + " --report " + json);
+    REQUIRE(r.code == 0);
+    CHECK_THAT(r.err, Catch::Contains("note: the band-voxel budget (--max-voxels 20000) set the voxel size"));
+    const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
+    CHECK(report["parameters"]["max_band_voxels"].get<double>() == 20000);
+    CHECK(report["band"]["voxels"].get<double>() <= 1.3 * 20000);
+    // The defaults as --help shows them: the eigen solvers' commands 3e5, the others 4e6.
+    for (const std::string command : {"spectrum", "regress"})
+        CHECK_THAT(run(command + " --help").out, Catch::Contains("--max-voxels FLOAT=300000"));
+    for (const std::string command : {"band", "green", "geodesic"})
+        CHECK_THAT(run(command + " --help").out, Catch::Contains("--max-voxels FLOAT=4e+06"));
+}
+
 TEST_CASE("cli: info forecasts the default band, its voxel size exactly and its voxels within 25 %, or says it would be refused", "[cli]") {
     // (Its peak against the band's: the [memory] tests.)
     const std::string cloud = sphereCloud("forecast_cloud.xyz", 3000, 0.02);

@@ -15,6 +15,7 @@ Errors: gpisvdb.InputError, ParameterError, MemoryLimitError (a ParameterError),
 Ctrl-C stops long work with KeyboardInterrupt; the GIL is released while the engine runs.
 """
 from ._core import (  # noqa: F401
+    EIGEN_MAX_VOXELS,
     Band,
     Error,
     InputError,
@@ -49,5 +50,5 @@ def _pyopenvdb_grids(self, channels=None, vectors=None, half=False, stencils=Fal
 
 Band.pyopenvdb_grids = _pyopenvdb_grids
 
-__all__ = ["Band", "Error", "InputError", "MemoryLimitError", "Model", "OutputError", "ParameterError", "band",
+__all__ = ["EIGEN_MAX_VOXELS", "Band", "Error", "InputError", "MemoryLimitError", "Model", "OutputError", "ParameterError", "band",
            "__version__"]

@@ -12,6 +12,7 @@
 #include "bindings.h"
 #include "gpisvdb/app/parameter_names.h"
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/tasks/spectrum.h"
 
 namespace gpisvdb::python {
 
@@ -79,6 +80,8 @@ PYBIND11_MODULE(_core, m) {
     openvdb::initialize();
     m.doc() = "The gpisvdb engine (C++); use the package gpisvdb, which re-exports it.";
     m.attr("__version__") = GPISVDB_VERSION;
+    // The band-voxel budget of `gpisvdb spectrum` and `gpisvdb regress` (docs/spectrum.md#budget), for band(max_voxels=…)
+    m.attr("EIGEN_MAX_VOXELS") = gpisvdb::kEigenMaxBandVoxels;
 
     bindErrors(m);
     bindModel(m);

@@ -91,6 +91,12 @@ def test_spectrum_by_lobpcg_equals_lanczos_and_the_command_line(band, sphere_obj
         band.spectrum(4, method="arpack")
 
 
+def test_eigen_max_voxels_is_the_spectrum_and_regress_commands_default_budget():
+    assert gpisvdb.EIGEN_MAX_VOXELS == 3e5
+    for command in ("spectrum", "regress"):
+        assert "--max-voxels FLOAT=300000 " in run_cli(command, "--help").stdout
+
+
 def test_regression_interpolates_exact_data(band):
     rng = np.random.default_rng(5)
     idx = rng.choice(np.flatnonzero(band.mu > np.median(band.mu)), 12, replace=False)

@@ -111,6 +111,7 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
         if (job.model.input.normalsFlipped) std::cerr << "note: " << kNormalsFlippedNote << "\n";
         if (job.budgeted)
             std::cerr << "note: the band-voxel budget (--max-voxels " << std::llround(job.maxBandVoxels)
+                      << (flags.maxBandVoxelsGiven || flags.budgetDefaultWhy.empty() ? "" : ", " + flags.budgetDefaultWhy)
                       << ") set the voxel size: the accuracy-driven " << numberText(job.accuracyVoxelSize) << " would make about "
                       << numberText(std::round(job.accuracyVoxels)) << " band voxels; " << job.voxelSizeNote << "\n";
         for (const std::string& w : job.warnings) std::cerr << "warning: " << w << "\n";

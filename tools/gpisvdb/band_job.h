@@ -24,6 +24,7 @@ struct BandFlags {
     bool resolutionScaleGiven = false;  ///< --resolution-scale was given: the budget applies only with --max-voxels
     double maxBandVoxels = kDefaultMaxBandVoxels;  ///< --max-voxels (0: none)
     bool maxBandVoxelsGiven = false;
+    std::string budgetDefaultWhy;  ///< why this command's default budget is not kDefaultMaxBandVoxels (the note says it)
     VoxelValues voxelValues = VoxelValues::Point;  ///< --voxel-values
     std::string maxMemory;  ///< "8G", "512M", "1e9"; empty: half the RAM
     std::string report;     ///< JSON report path; empty: none

@@ -7,13 +7,17 @@
 #include <string>
 
 #include "band_job.h"
+#include "spectrum_job.h"
 #include "gpisvdb/input/point_data.h"
 #include "gpisvdb/tasks/matern.h"
 
 namespace gpisvdb::cli {
 
 struct RegressArgs {
-    RegressArgs() { eigen.count = 200; }
+    RegressArgs() {
+        eigen.count = 200;
+        eigenBandBudget(flags);
+    }
     std::string input, output, data, nu = "1.5";
     double kappa = 0, amplitude = 0;
     BandFlags flags;

@@ -8,6 +8,11 @@
 
 namespace gpisvdb::cli {
 
+void eigenBandBudget(BandFlags& flags) {
+    flags.maxBandVoxels = kEigenMaxBandVoxels;
+    flags.budgetDefaultWhy = "the default of commands that solve for eigenpairs, docs/spectrum.md#budget";
+}
+
 void addEigenFlags(CLI::App& cmd, EigenOptions& o) {
     cmd.add_option("-k,--count", o.count, "number of lowest eigenpairs (1 <= k < band voxels)")->capture_default_str();
     cmd.add_option("--subspace", o.subspace, "Lanczos basis size (> k; 0: max(2k, k+20)); memory 16 N ncv bytes")

@@ -8,11 +8,15 @@
 
 namespace gpisvdb::cli {
 
+/// The band-voxel budget of commands that solve for eigenpairs (kEigenMaxBandVoxels) as the flags' default.
+void eigenBandBudget(BandFlags& flags);
+
 /// -k, --subspace, --eigen-tolerance, --max-restarts.
 void addEigenFlags(CLI::App& cmd, EigenOptions& options);
 
 /// `spectrum`'s flags, gpisvdb's and gpisvdb-mpi's alike.
 struct SpectrumArgs {
+    SpectrumArgs() { eigenBandBudget(flags); }
     std::string input, output;
     BandFlags flags;
     EigenOptions eigen;

@@ -8,6 +8,12 @@
 
 namespace gpisvdb {
 
+/// The default band-voxel budget of the commands that solve for eigenpairs (`spectrum`, `regress`), in place of
+/// kDefaultMaxBandVoxels: the eigen solver's time grows like N^1.3 (the factor's fill), so a band the other
+/// commands solve in seconds takes it minutes; a few hundred thousand voxels resolve the lowest modes along the
+/// surface (docs/spectrum.md#budget).
+constexpr double kEigenMaxBandVoxels = 3e5;
+
 /// M's diagonal in double, h³ μ.
 Eigen::VectorXd massVector(const Band& band);
 
