@@ -38,10 +38,15 @@ nlohmann::json compareBuilders(const GpisModel& model, const Samples& samples, c
     const BandResult scan = scanBand(model, samples, o);
     const double ts = seconds(t);
     const auto bb = scan.band.bbox();
-    return {{"h", o.voxelSize}, {"band_voxels_bfs", bfs.band.size()}, {"band_voxels_scan", scan.band.size()},
-            {"evaluated_bfs", bfs.stats.evaluated}, {"evaluated_scan", scan.stats.evaluated},
+    return {{"h", o.voxelSize},
+            {"band_voxels_bfs", bfs.band.size()},
+            {"band_voxels_scan", scan.band.size()},
+            {"evaluated_bfs", bfs.stats.evaluated},
+            {"evaluated_scan", scan.stats.evaluated},
             {"bbox_voxels", {bb.dim().x(), bb.dim().y(), bb.dim().z()}},
-            {"seconds_bfs", tb}, {"seconds_scan", ts}, {"speedup", ts / tb}};
+            {"seconds_bfs", tb},
+            {"seconds_scan", ts},
+            {"speedup", ts / tb}};
 }
 
 double soupArea(const Samples& s) {
@@ -66,7 +71,11 @@ int main(int argc, char** argv) {
     nlohmann::json report;
     {
         std::ifstream in(out);
-        if (in) try { in >> report; } catch (...) { report = nlohmann::json::object(); }
+        if (in) try {
+                in >> report;
+            } catch (...) {
+                report = nlohmann::json::object();
+            }
     }
     const TriangleSoup bunny = *readInput(data + "/bunny.obj").soup;
 
@@ -84,9 +93,16 @@ int main(int argc, char** argv) {
             o.voxelSize = fine ? 0.5 * res.muWidth : std::min(res.hStar, 1.5 * res.muWidth);
             const auto t = Clock::now();
             const BandResult b = buildBand(model, ss.samples, o);
-            nlohmann::json row = {{"sigma_rel", sigma}, {"h", o.voxelSize}, {"h_over_mu_width", o.voxelSize / res.muWidth}, {"h_star", res.hStar}, {"mu_width", res.muWidth},
-                                  {"voxels", b.band.size()}, {"mass", b.band.mass()}, {"soup_area", soupArea(ss.samples)},
-                                  {"sphere_area", 4 * M_PI}, {"relative_error_vs_soup", b.band.mass() / soupArea(ss.samples) - 1},
+            nlohmann::json row = {{"sigma_rel", sigma},
+                                  {"h", o.voxelSize},
+                                  {"h_over_mu_width", o.voxelSize / res.muWidth},
+                                  {"h_star", res.hStar},
+                                  {"mu_width", res.muWidth},
+                                  {"voxels", b.band.size()},
+                                  {"mass", b.band.mass()},
+                                  {"soup_area", soupArea(ss.samples)},
+                                  {"sphere_area", 4 * M_PI},
+                                  {"relative_error_vs_soup", b.band.mass() / soupArea(ss.samples) - 1},
                                   {"seconds", seconds(t)}};
             std::cout << row.dump() << std::endl;
             report["sphere_area"].push_back(row);
@@ -107,9 +123,13 @@ int main(int argc, char** argv) {
                 const auto t = Clock::now();
                 const BandResult b = buildBand(model, ss.samples, o);
                 const auto bb = b.band.bbox();
-                nlohmann::json row = {{"sigma_rel", sigma}, {"eta_rel", eta}, {"h", res.hStar}, {"voxels", b.band.size()},
+                nlohmann::json row = {{"sigma_rel", sigma},
+                                      {"eta_rel", eta},
+                                      {"h", res.hStar},
+                                      {"voxels", b.band.size()},
                                       {"bbox_voxels", {bb.dim().x(), bb.dim().y(), bb.dim().z()}},
-                                      {"mass", b.band.mass()}, {"seconds", seconds(t)}};
+                                      {"mass", b.band.mass()},
+                                      {"seconds", seconds(t)}};
                 std::cout << row.dump() << std::endl;
                 report["fig7_band_size"].push_back(row);
             }
@@ -188,10 +208,15 @@ int main(int argc, char** argv) {
                     row["voxels_per_s" + path + t] = double(b.band.size()) / sec;
                     row["evaluated_per_s" + path + t] = double(b.stats.evaluated) / sec;
                     row["seconds" + path + t] = sec;
-                    (packets ? massPacket : path == "_double" ? massDouble : path == "_packets" ? massNoCells : massReference) = b.band.mass();
+                    (packets              ? massPacket
+                     : path == "_double"  ? massDouble
+                     : path == "_packets" ? massNoCells
+                                          : massReference) = b.band.mass();
                     if (packets) {
-                        row["stage_seconds" + t] = {{"model", b.stats.modelSeconds}, {"kac_rice", b.stats.kacRiceSeconds},
-                                                    {"search", b.stats.searchSeconds}, {"finish", b.stats.finishSeconds}};
+                        row["stage_seconds" + t] = {{"model", b.stats.modelSeconds},
+                                                    {"kac_rice", b.stats.kacRiceSeconds},
+                                                    {"search", b.stats.searchSeconds},
+                                                    {"finish", b.stats.finishSeconds}};
                         row["bytes_per_voxel"] = b.band.bytesPerVoxel();
                         row["cell_cache_bytes"] = fresh->cellCacheBytes();
                     } else if (path == "_packets") {
@@ -222,7 +247,9 @@ int main(int argc, char** argv) {
             const Samples samples = soupSamples(icosphere(level), {0.5}).samples;
             DefaultBandOptions options;
             options.resolutionScale = 2;
-            nlohmann::json row = {{"input", "sphere_l" + std::to_string(level)}, {"n", samples.size()}, {"threads", 2},
+            nlohmann::json row = {{"input", "sphere_l" + std::to_string(level)},
+                                  {"n", samples.size()},
+                                  {"threads", 2},
                                   {"resolution_scale", options.resolutionScale}};
             for (const std::string path : {"", "_packets"}) {
                 BarnesHutOptions bo;

@@ -55,8 +55,12 @@ int main(int argc, char** argv) {
         const std::vector<float> V = hodgePreset(band, HodgePreset::Mixed);
         HodgeResult r;
         const double t = medianSeconds(3, [&] { r = hodgeDecomposition(band, V); });
-        out["hodge"].push_back({{"h", h}, {"voxels", band.size()}, {"seconds", t}, {"iterations", r.solver.iterations},
-                                {"divergence_residual", r.divergenceResidual}, {"s_inner_product", r.sInnerProduct}});
+        out["hodge"].push_back({{"h", h},
+                                {"voxels", band.size()},
+                                {"seconds", t},
+                                {"iterations", r.solver.iterations},
+                                {"divergence_residual", r.divergenceResidual},
+                                {"s_inner_product", r.sInnerProduct}});
         std::cout << "hodge h " << h << ": N " << band.size() << ", " << t << " s, " << r.solver.iterations << " iterations" << std::endl;
     }
 
@@ -71,16 +75,17 @@ int main(int argc, char** argv) {
             o.gridVoxelSize = (band.voxelSize * (box.max().x() - box.min().x()) + 2 * o.padding) / (grid - 1);
             SmoothedDistanceResult tree, brute;
             const double tTree = medianSeconds(1, [&] { tree = smoothedDistanceGrid(band, o); });
-            nlohmann::json row = {{"alpha", alpha}, {"band_voxels", band.size()}, {"grid_points", tree.points},
+            nlohmann::json row = {{"alpha", alpha},        {"band_voxels", band.size()},   {"grid_points", tree.points},
                                   {"tree_seconds", tTree}, {"mean_terms", tree.meanTerms}, {"tolerance", tree.tolerance}};
-            std::cout << "distance alpha " << alpha << ": " << tree.points << " points, tree " << tTree << " s, "
-                      << tree.meanTerms << " terms per point" << std::endl;
+            std::cout << "distance alpha " << alpha << ": " << tree.points << " points, tree " << tTree << " s, " << tree.meanTerms
+                      << " terms per point" << std::endl;
             if (alpha == 20.0) {
                 o.bruteForce = true;
                 const double tBrute = medianSeconds(1, [&] { brute = smoothedDistanceGrid(band, o); });
                 double worst = 0;
                 auto acc = brute.grid->getConstAccessor();
-                for (auto it = tree.grid->cbeginValueOn(); it; ++it) worst = std::max(worst, double(std::abs(*it - acc.getValue(it.getCoord()))));
+                for (auto it = tree.grid->cbeginValueOn(); it; ++it)
+                    worst = std::max(worst, double(std::abs(*it - acc.getValue(it.getCoord()))));
                 row["brute_force_seconds"] = tBrute;
                 row["speedup"] = tBrute / tTree;
                 row["max_difference"] = worst;
@@ -108,8 +113,11 @@ int main(int argc, char** argv) {
             std::unique_ptr<RegressionGpis> model;
             const double tBuild = medianSeconds(3, [&] { model = std::make_unique<RegressionGpis>(t, ro); });
             const double tQuery = medianSeconds(3, [&] { model->evaluate(xs); });
-            out["regression"].push_back({{"labels", t.size()}, {"build_seconds", tBuild}, {"query_points", xs.size()},
-                                         {"query_seconds", tQuery}, {"us_per_point", 1e6 * tQuery / double(xs.size())},
+            out["regression"].push_back({{"labels", t.size()},
+                                         {"build_seconds", tBuild},
+                                         {"query_points", xs.size()},
+                                         {"query_seconds", tQuery},
+                                         {"us_per_point", 1e6 * tQuery / double(xs.size())},
                                          {"memory_bytes", model->memoryBytes()}});
             std::cout << "regression " << t.size() << " labels: build " << tBuild << " s, " << 1e6 * tQuery / double(xs.size())
                       << " us/point" << std::endl;

@@ -5,8 +5,8 @@
 //        [--sizes 100,150,200]
 #include <malloc.h>
 
-#include <Eigen/Geometry>
 #include <algorithm>
+#include <Eigen/Geometry>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -14,9 +14,9 @@
 
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/core/memory_estimate.h"
-#include "gpisvdb/solve/fast_marching.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/solve/fast_marching.h"
 #include "gpisvdb/stencil/resolution.h"
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/green.h"
@@ -47,9 +47,9 @@ Band box(int n, double a, bool varying) {
                 BandVoxel v;
                 v.coord = openvdb::Coord(i - n / 2, j - n / 2, k - n / 2);
                 const Vec3d x = h * Vec3d(v.coord.x(), v.coord.y(), v.coord.z());
-                const Mat3d R = varying ? Mat3d(Eigen::AngleAxisd(1.5 * x.x() + x.y() * x.y(), axis) *
-                                                Eigen::AngleAxisd(2.0 * x.z(), Vec3d::UnitX()))
-                                        : fixed;
+                const Mat3d R =
+                    varying ? Mat3d(Eigen::AngleAxisd(1.5 * x.x() + x.y() * x.y(), axis) * Eigen::AngleAxisd(2.0 * x.z(), Vec3d::UnitX()))
+                            : fixed;
                 v.mu = 1;
                 v.T = R * Vec3d(1.0, 1.0 / (a * a), 1.0 / a).asDiagonal() * R.transpose();
                 voxels.push_back(v);
@@ -92,16 +92,22 @@ nlohmann::json measure(const std::string& name, const Band& band, const Vec3d& s
     int width = 0;
     for (const VoxelStencil& st : band.stencil) width = std::max<int>(width, st.width);
     const double tableBytes = fm->bytesPerVoxel();
-    nlohmann::json row = {{"case", name}, {"voxels", n}, {"accepted", r.accepted}, {"unreached", r.unreached},
-                          {"max_stencil_width", width}, {"tables_s", tTables}, {"march_s", tMarch},
-                          {"reference_march_s", tReference}, {"identical_to_reference", identical},
+    nlohmann::json row = {{"case", name},
+                          {"voxels", n},
+                          {"accepted", r.accepted},
+                          {"unreached", r.unreached},
+                          {"max_stencil_width", width},
+                          {"tables_s", tTables},
+                          {"march_s", tMarch},
+                          {"reference_march_s", tReference},
+                          {"identical_to_reference", identical},
                           {"accepted_per_s_march", double(r.accepted) / tMarch},
                           {"accepted_per_s_with_tables", double(r.accepted) / (tMarch + tTables)},
                           {"table_bytes_per_voxel", tableBytes},
                           {"peak_touched_share", peakTouched / double(n)},
                           // counted: tables + U, slot map, target flags + the pool and heap at their peak
-                          {"march_extra_bytes_per_voxel", tableBytes + FastMarching::kMarchBytesPerVoxel +
-                                                              FastMarching::kTouchedBytes * peakTouched / double(n)},
+                          {"march_extra_bytes_per_voxel",
+                           tableBytes + FastMarching::kMarchBytesPerVoxel + FastMarching::kTouchedBytes * peakTouched / double(n)},
                           // the reference: tables + the 51 B forward table while building them, or U 8 + record 72
                           // + heap position 4 + target flag 1 while marching (the heap is front-sized)
                           {"reference_extra_bytes_per_voxel", tableBytes + std::max(48.0 + 4.0, 85.0)},
@@ -152,17 +158,23 @@ int main(int argc, char** argv) {
     nlohmann::json report;
     {
         std::ifstream in(out);
-        if (in) try { in >> report; } catch (...) { report = nlohmann::json::object(); }
+        if (in) try {
+                in >> report;
+            } catch (...) {
+                report = nlohmann::json::object();
+            }
     }
     report["machine"] = "2-core x86-64 (project machine); fast marching is single-threaded";
     report["command"] = "build/bin/bench_geodesic --part " + part + " --repeat " + std::to_string(gRepeat);
-    report["reference_hfm_accepted_per_s"] = {{"box_100_anisotropy_10", 0.57e6}, {"box_200_anisotropy_10", 0.26e6},
-                                              {"box_200_varying", 0.15e6}, {"target", 2e6}};
+    report["reference_hfm_accepted_per_s"] = {
+        {"box_100_anisotropy_10", 0.57e6}, {"box_200_anisotropy_10", 0.26e6}, {"box_200_varying", 0.15e6}, {"target", 2e6}};
     if (part == "boxes" || part == "all") {
         report["boxes"] = nlohmann::json::array();
-        for (int n : sizes) report["boxes"].push_back(measure("box " + std::to_string(n) + "^3, anisotropy 10", box(n, 10, false), Vec3d::Zero()));
+        for (int n : sizes)
+            report["boxes"].push_back(measure("box " + std::to_string(n) + "^3, anisotropy 10", box(n, 10, false), Vec3d::Zero()));
         const int n = sizes.back();
-        report["boxes"].push_back(measure("box " + std::to_string(n) + "^3, anisotropy 10, varying metric", box(n, 10, true), Vec3d::Zero()));
+        report["boxes"].push_back(
+            measure("box " + std::to_string(n) + "^3, anisotropy 10, varying metric", box(n, 10, true), Vec3d::Zero()));
     }
     if (part == "bunny" || part == "all") {
         report["bunny"] = nlohmann::json::array();

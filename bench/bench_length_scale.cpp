@@ -33,7 +33,9 @@ struct Adaptor {
     std::size_t kdtree_get_point_count() const { return pts.size(); }
     double kdtree_get_pt(std::size_t i, std::size_t d) const { return pts[i][int(d)]; }
     template <class B>
-    bool kdtree_get_bbox(B&) const { return false; }
+    bool kdtree_get_bbox(B&) const {
+        return false;
+    }
 };
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>, Adaptor, 3, std::size_t>;
 
@@ -153,8 +155,8 @@ nlohmann::json measure(const std::string& name, const PointCloud& cloud, double 
     if (truth > 0) {
         row["truth"] = truth;
         nlohmann::json ratio;
-        for (const char* key : {"ell", "mean_nearest_neighbour", "sqrt_mean_area_fixed", "sqrt_trimmed_mean_area_fixed",
-                                "sqrt_mean_area", "sqrt_trimmed_mean_area", "sqrt_median_area", "median_knn16_radius"})
+        for (const char* key : {"ell", "mean_nearest_neighbour", "sqrt_mean_area_fixed", "sqrt_trimmed_mean_area_fixed", "sqrt_mean_area",
+                                "sqrt_trimmed_mean_area", "sqrt_median_area", "median_knn16_radius"})
             ratio[key] = row[key].get<double>() / truth;
         row["ratio_to_truth"] = ratio;
     }
@@ -187,8 +189,8 @@ int main(int argc, char** argv) {
     rows.push_back(measure("sphere, random", sphereRandom(points, rng), sphereTruth(points), repeat));
     rows.push_back(measure("sphere, Fibonacci lattice", sphereFibonacci(points), sphereTruth(points), repeat));
     rows.push_back(measure("sphere, upper half 10x denser", sphereTwoDensities(points, rng), sphereTruth(points), repeat));
-    rows.push_back(measure("sphere, random, 1 % outliers", withOutliers(sphereRandom(points, rng), points / 100, rng),
-                           sphereTruth(points), repeat));
+    rows.push_back(
+        measure("sphere, random, 1 % outliers", withOutliers(sphereRandom(points, rng), points / 100, rng), sphereTruth(points), repeat));
     for (double ratio : {1.0, 3.0, 10.0, 30.0}) {
         const double cell = torusArea / double(points), across = std::sqrt(cell * ratio), along = across / ratio;
         const PointCloud c = scanLineTorus(along, across);
@@ -199,8 +201,8 @@ int main(int argc, char** argv) {
         rows.push_back(measure(file, *readInput(data + "/" + file).cloud, 0, repeat));
     if (big > 0) {
         rows.push_back(measure("sphere, random, big", sphereRandom(big, rng), sphereTruth(big), 1));
-        rows.push_back(measure("sphere, random, big, 1 % outliers", withOutliers(sphereRandom(big, rng), big / 100, rng),
-                               sphereTruth(big), 1));
+        rows.push_back(
+            measure("sphere, random, big, 1 % outliers", withOutliers(sphereRandom(big, rng), big / 100, rng), sphereTruth(big), 1));
     }
     std::ofstream(out) << nlohmann::json{{"bench", "length_scale"}, {"points", points}, {"rows", rows}}.dump(2) << "\n";
     std::cerr << "wrote " << out << "\n";

@@ -1,6 +1,6 @@
-// Queries per second of DirectGpis and BarnesHutGpis (in packets, and one point at a time) against n, on 1 and 2 threads, with the Barnes–Hut error
-// (docs/benchmarks.md states the norm), tree build time and bytes per sample; and the error against β.
-// Usage: bench_model [--quick] [--out bench/results/model.json] [--data DIR]
+// Queries per second of DirectGpis and BarnesHutGpis (in packets, and one point at a time) against n, on 1 and 2 threads, with the
+// Barnes–Hut error (docs/benchmarks.md states the norm), tree build time and bytes per sample; and the error against β. Usage: bench_model
+// [--quick] [--out bench/results/model.json] [--data DIR]
 #include <algorithm>
 #include <chrono>
 #include <fstream>
@@ -33,8 +33,7 @@ std::vector<Vec3d> nearPoints(const Samples& s, std::size_t count, std::uint64_t
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> U(-1, 1);
     std::vector<Vec3d> xs;
-    for (std::size_t i = 0; i < count; ++i)
-        xs.push_back(s.position[rng() % s.size()] + 3 * s.lengthScale * Vec3d(U(rng), U(rng), U(rng)));
+    for (std::size_t i = 0; i < count; ++i) xs.push_back(s.position[rng() % s.size()] + 3 * s.lengthScale * Vec3d(U(rng), U(rng), U(rng)));
     return xs;
 }
 
@@ -83,7 +82,8 @@ int main(int argc, char** argv) {
     nlohmann::json report;
     report["machine"] = {{"hardware_concurrency", std::thread::hardware_concurrency()}};
     report["beta_default"] = BarnesHutOptions{}.beta;
-    report["error_norm"] = "per number q: max over points |BH - direct| / scale_q; scales: gamma 1, gradient max|grad gamma|, c_ab max sqrt(c_aa c_bb)";
+    report["error_norm"] =
+        "per number q: max over points |BH - direct| / scale_q; scales: gamma 1, gradient max|grad gamma|, c_ab max sqrt(c_aa c_bb)";
 
     struct Input {
         std::string name;
@@ -155,9 +155,11 @@ int main(int argc, char** argv) {
             tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
             const double tq = perQuery(bh, xs, 3);
             const ModelError e = compareModels(ref, bh.evaluate(xs));
-            nlohmann::json row = {{"beta", beta}, {"error_mean_max", *std::max_element(e.maxRel.begin(), e.maxRel.begin() + 4)},
+            nlohmann::json row = {{"beta", beta},
+                                  {"error_mean_max", *std::max_element(e.maxRel.begin(), e.maxRel.begin() + 4)},
                                   {"error_cov_max", *std::max_element(e.maxRel.begin() + 4, e.maxRel.end())},
-                                  {"error_worst", e.worst()}, {"qps_1t", 1.0 / tq}};
+                                  {"error_worst", e.worst()},
+                                  {"qps_1t", 1.0 / tq}};
             std::cout << row.dump() << std::endl;
             report["beta_sweep_bunny"].push_back(row);
         }
@@ -173,7 +175,8 @@ int main(int argc, char** argv) {
         for (std::size_t i = 0; i < xs.size(); i += 32) some.push_back(xs[i]);
         const auto ref = DirectGpis(s, sm).evaluate(some);
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
-        nlohmann::json base = {{"input", inputs[inputs.size() - 3].name}, {"cell_nodes", 0},
+        nlohmann::json base = {{"input", inputs[inputs.size() - 3].name},
+                               {"cell_nodes", 0},
                                {"us_per_point_1t", 1e6 * perQuery(bh, xs, 3)},
                                {"error_worst", compareModels(ref, bh.evaluate(some)).worst()}};
         std::cout << base.dump() << std::endl;
@@ -183,7 +186,9 @@ int main(int argc, char** argv) {
             o.cellNodes = nodes;
             o.cellCacheBytes = 0;
             const BarnesHutGpis cells(s, sm, o);
-            nlohmann::json row = {{"input", base["input"]}, {"cell_width_s", o.cellWidth}, {"cell_nodes", nodes},
+            nlohmann::json row = {{"input", base["input"]},
+                                  {"cell_width_s", o.cellWidth},
+                                  {"cell_nodes", nodes},
                                   {"us_per_point_1t", 1e6 * perQuery(cells, xs, 3, true)},
                                   {"error_worst", compareModels(ref, cells.evaluateDense(some)).worst()}};
             std::cout << row.dump() << std::endl;

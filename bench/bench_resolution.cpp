@@ -52,9 +52,7 @@ std::vector<double> numbers(const std::string& s) {
     return v;
 }
 
-Vec3d world(const Band& band, std::size_t i) {
-    return band.voxelSize * Vec3d(band.coord[i].x(), band.coord[i].y(), band.coord[i].z());
-}
+Vec3d world(const Band& band, std::size_t i) { return band.voxelSize * Vec3d(band.coord[i].x(), band.coord[i].y(), band.coord[i].z()); }
 
 double angle(const Vec3d& a, const Vec3d& b) { return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)); }
 
@@ -138,19 +136,22 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
     // 63°–180° away, the antipode among them (one path is a noisy figure: it follows U's valley, which shifts with
     // the grid; the mean and the worst of their errors are kept); on the bunny the points of docs/geodesic.md.
     const Vec3d source = in.sphere ? Vec3d(0, 0, 1) : Vec3d(0.5, 6, 1);
-    const std::vector<Vec3d> targets =
-        in.sphere ? std::vector<Vec3d>{Vec3d(0, 0, -1), Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(0.3, -0.5, -0.8).normalized(),
-                                       Vec3d(-0.7, -0.7, 0.5).normalized(), Vec3d(-0.5, 0.6, -0.3).normalized()}
-                  : std::vector<Vec3d>{Vec3d(-2, 9, 0), Vec3d(3, 4, -2)};
+    const std::vector<Vec3d> targets = in.sphere ? std::vector<Vec3d>{Vec3d(0, 0, -1),
+                                                                      Vec3d(1, 0, 0),
+                                                                      Vec3d(0, 1, 0),
+                                                                      Vec3d(0.3, -0.5, -0.8).normalized(),
+                                                                      Vec3d(-0.7, -0.7, 0.5).normalized(),
+                                                                      Vec3d(-0.5, 0.6, -0.3).normalized()}
+                                                 : std::vector<Vec3d>{Vec3d(-2, 9, 0), Vec3d(3, 4, -2)};
     nlohmann::json rows = nlohmann::json::array();
-    std::vector<MuSurface> surfaces;     // each run's μ grid and mean surface, to compare with the finest's
+    std::vector<MuSurface> surfaces;      // each run's μ grid and mean surface, to compare with the finest's
     std::vector<std::size_t> surfaceRow;  // the row of each
     double lastH = 0, lastN = 0, lastThickN = 0;
     for (double ratio : ratios) {
         const double h = ratio * res.muWidth;
-        nlohmann::json row = {{"input", in.name}, {"sigma_rel", in.sigma}, {"h_over_wmu", ratio}, {"h", h},
-                              {"h_over_hstar", h / res.hStar}, {"h_star", res.hStar}, {"w_mu", res.muWidth},
-                              {"default_h", res.h}, {"soup_area", area}};
+        nlohmann::json row = {
+            {"input", in.name},    {"sigma_rel", in.sigma}, {"h_over_wmu", ratio}, {"h", h},           {"h_over_hstar", h / res.hStar},
+            {"h_star", res.hStar}, {"w_mu", res.muWidth},   {"default_h", res.h},  {"soup_area", area}};
         const double cube = lastH > 0 ? std::pow(lastH / h, 3) : 0;
         if (lastN * cube > maxVoxels) {
             row["skipped"] = "predicted " + std::to_string(long(lastN * cube)) + " band voxels > --max-voxels";
@@ -202,8 +203,12 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
                 const double tb = seconds(t);
                 const double e = energyX1(b);
                 lastThickN = double(b.size());
-                row["energy"] = {{"eta_rel", 1e-6}, {"voxels", b.size()}, {"band_seconds", tb}, {"mass", b.mass()},
-                                 {"x1", e}, {"x1_vs_8pi_3", e / (8 * M_PI / 3) - 1}};
+                row["energy"] = {{"eta_rel", 1e-6},
+                                 {"voxels", b.size()},
+                                 {"band_seconds", tb},
+                                 {"mass", b.mass()},
+                                 {"x1", e},
+                                 {"x1_vs_8pi_3", e / (8 * M_PI / 3) - 1}};
             }
         }
         // === The 10 lowest eigenvalues (l = 0, the l = 1 triple, the l = 2 quintuple on the sphere, docs/spectrum.md)
@@ -212,7 +217,9 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
             eo.count = 10;
             const EigenResult er = spectrum(band, eo);
             std::vector<double> values(er.values.data(), er.values.data() + er.values.size());
-            nlohmann::json s = {{"values", values}, {"factor_seconds", er.factorSeconds}, {"lanczos_seconds", er.lanczosSeconds},
+            nlohmann::json s = {{"values", values},
+                                {"factor_seconds", er.factorSeconds},
+                                {"lanczos_seconds", er.lanczosSeconds},
                                 {"max_residual", er.residuals.maxCoeff()}};
             if (in.sphere && values.size() >= 9) {
                 const double l0 = values[0];
@@ -222,9 +229,9 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
                 l2 -= l0;
                 const double r2 = band.mass() / (4 * M_PI);  // r² from the expected area
                 s["lambda0"] = l0;
-                s["l1_gap"] = l1;                                  // mean(λ₁..λ₃) − λ₀
-                s["l1_split"] = (values[3] - values[1]) / l1;      // the triple's spread, relative
-                s["l2_over_l1"] = l2 / l1;                         // 3 on a sphere
+                s["l1_gap"] = l1;                              // mean(λ₁..λ₃) − λ₀
+                s["l1_split"] = (values[3] - values[1]) / l1;  // the triple's spread, relative
+                s["l2_over_l1"] = l2 / l1;                     // 3 on a sphere
                 s["l1_gap_vs_2_over_r2"] = l1 / (2 / r2) - 1;
             }
             row["spectrum"] = s;
@@ -241,8 +248,11 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
         const Vec3d src = world(band, g.sourceIndex[0]);
         for (std::size_t k = 0; k < targets.size(); ++k) {
             const GeodesicPath& p = g.paths[k];
-            nlohmann::json tj = {{"target", {targets[k].x(), targets[k].y(), targets[k].z()}}, {"U", p.distance},
-                                 {"length", p.length}, {"points", p.points.size()}, {"reached_source", p.reachedSource}};
+            nlohmann::json tj = {{"target", {targets[k].x(), targets[k].y(), targets[k].z()}},
+                                 {"U", p.distance},
+                                 {"length", p.length},
+                                 {"points", p.points.size()},
+                                 {"reached_source", p.reachedSource}};
             if (in.sphere) {
                 const double arc = angle(world(band, g.targetIndex[k]), src) * radius;
                 double off = 0;  // largest distance of a path point from the sphere of radius `radius`
@@ -276,7 +286,8 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
             m /= double(std::max<std::size_t>(1, q.size()));
             for (double x : q) v += (x - m) * (x - m);
             geo["radius"] = radius;
-            geo["u_over_theta"] = {{"voxels", q.size()}, {"mean", m}, {"spread", std::sqrt(v / double(std::max<std::size_t>(1, q.size()))) / m}};
+            geo["u_over_theta"] = {
+                {"voxels", q.size()}, {"mean", m}, {"spread", std::sqrt(v / double(std::max<std::size_t>(1, q.size()))) / m}};
         }
         row["geodesic"] = geo;
         std::cerr << row.dump() << std::endl;
@@ -316,7 +327,8 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
         }
         for (std::size_t k = 0; k < surfaces.size(); ++k)
             if (&rows[surfaceRow[k]] == &r)
-                r["vs_finest"]["mu_on_surface_rms"] = muDifference(*surfaces[k].mu, surfaces.back().mesh.vertices, surfaces.back().mesh.arrays.back());
+                r["vs_finest"]["mu_on_surface_rms"] =
+                    muDifference(*surfaces[k].mu, surfaces.back().mesh.vertices, surfaces.back().mesh.arrays.back());
         nlohmann::json u = nlohmann::json::array(), len = nlohmann::json::array();
         for (std::size_t k = 0; k < r["geodesic"]["targets"].size(); ++k) {
             const auto& a = r["geodesic"]["targets"][k];
@@ -327,7 +339,8 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
         r["vs_finest"]["geodesic_U"] = u;
         r["vs_finest"]["path_length"] = len;
         double mean = 0, worst = 0;
-        for (const auto& x : len) mean += std::abs(x.get<double>()) / double(len.size()), worst = std::max(worst, std::abs(x.get<double>()));
+        for (const auto& x : len)
+            mean += std::abs(x.get<double>()) / double(len.size()), worst = std::max(worst, std::abs(x.get<double>()));
         r["vs_finest"]["path_length_mean_abs"] = mean;
         r["vs_finest"]["path_length_max_abs"] = worst;
     }
@@ -360,7 +373,10 @@ PictureSet pictureSet(const std::string& name, const TriangleSoup& soup, double 
             file << vdbDir << "/" << name << "_" << ratio << ".vdb";
             writeBandVdb(band, file.str(), openvdb::MetaMap());
         }
-        nlohmann::json row = {{"h_over_wmu", ratio}, {"h", o.voxelSize}, {"voxels", band.size()}, {"seconds", seconds(t)},
+        nlohmann::json row = {{"h_over_wmu", ratio},
+                              {"h", o.voxelSize},
+                              {"voxels", band.size()},
+                              {"seconds", seconds(t)},
                               {"mu_on_mean_surface", muSurfaceStats(set.surfaces.back().mesh)}};
         std::cerr << name << " " << row.dump() << std::endl;
         set.rows.push_back(row);
@@ -405,14 +421,15 @@ nlohmann::json runPictures(const std::string& data, double sigma, std::vector<do
     ro.panelWidth = 180, ro.panelHeight = 165;  // 6 columns: a picture of < 300 kB for docs/images
     ro.azimuth = 60, ro.elevation = 20;
     std::ostringstream caption;
-    caption << "rows: mu on the mean surface of the unit-sphere soup (sigma 1 l), of the bunny's ears (y > 7.5, sigma "
-            << sigma << " l), and on the slice y = 8.5 through the ears";
+    caption << "rows: mu on the mean surface of the unit-sphere soup (sigma 1 l), of the bunny's ears (y > 7.5, sigma " << sigma
+            << " l), and on the slice y = 8.5 through the ears";
     ro.caption = caption.str();
     if (!png.empty()) renderPng(panels, ro, png);
     auto json = [](const PictureSet& set, const std::string& input, double s) {
         return nlohmann::json{{"input", input}, {"sigma_rel", s}, {"w_mu", set.res.muWidth}, {"h_star", set.res.hStar}, {"rows", set.rows}};
     };
-    return {{"picture", png}, {"sphere", json(sphere, "unit-sphere soup, icosphere(3)", 1.0)},
+    return {{"picture", png},
+            {"sphere", json(sphere, "unit-sphere soup, icosphere(3)", 1.0)},
             {"ears", json(bunny, "bunny ears (data/bunny.obj, triangles with centroid y > 7.5)", sigma)}};
 }
 
@@ -457,16 +474,22 @@ int main(int argc, char** argv) {
     nlohmann::json report = nlohmann::json::object();
     {
         std::ifstream in(out);
-        if (in) try { in >> report; } catch (...) { report = nlohmann::json::object(); }
+        if (in) try {
+                in >> report;
+            } catch (...) {
+                report = nlohmann::json::object();
+            }
     }
     std::vector<Input> inputs;
     if (part == "sphere" || part == "all")
         for (double s : sigmas) inputs.push_back({"sphere", icosphere(sphereLevel), s, true});
     if (part == "bunny" || part == "all")
-        for (double s : sigmaGiven ? sigmas : std::vector<double>{0.5}) inputs.push_back({"bunny", *readInput(data + "/bunny.obj").soup, s, false});
+        for (double s : sigmaGiven ? sigmas : std::vector<double>{0.5})
+            inputs.push_back({"bunny", *readInput(data + "/bunny.obj").soup, s, false});
     report["machine"] = "2-core x86-64 (project machine), all threads";
-    report["note"] = "h = (h/w_mu) w_mu, not capped at h*; eta 0.01 unless stated; energy on a second band at eta 1e-6; "
-                     "vs_finest: relative to the finest run of the same input and sigma";
+    report["note"] =
+        "h = (h/w_mu) w_mu, not capped at h*; eta 0.01 unless stated; energy on a second band at eta 1e-6; "
+        "vs_finest: relative to the finest run of the same input and sigma";
     if (!report.contains("runs")) report["runs"] = nlohmann::json::array();
     if (part == "pictures" || part == "all") {
         report["pictures"] = runPictures(data, sigmaGiven ? sigmas.front() : 0.5,

@@ -110,10 +110,15 @@ int main(int argc, char** argv) {
         std::cerr << row.dump() << "\n";
         rows.push_back(row);
     }
-    std::ofstream(out) << nlohmann::json{{"bench", "scan_model"}, {"sigma", sigma}, {"h", h}, {"blocks", blocks},
+    std::ofstream(out) << nlohmann::json{{"bench", "scan_model"},
+                                         {"sigma", sigma},
+                                         {"h", h},
+                                         {"blocks", blocks},
                                          {"repeat", repeat},
-                                         {"cell_width", options.cellWidth}, {"leaf_size", options.leafSize},
-                                         {"beta", options.beta}, {"covariance_ratio", options.covarianceRatio},
+                                         {"cell_width", options.cellWidth},
+                                         {"leaf_size", options.leafSize},
+                                         {"beta", options.beta},
+                                         {"covariance_ratio", options.covarianceRatio},
                                          {"rows", rows}}
                               .dump(2)
                        << "\n";

@@ -5,9 +5,9 @@
 // preconditioners against Jacobi on nested bands (issue 18 item 3); OpenVDB's tools::poisson on the same voxels.
 // Usage: bench_solve [--part table|solvers|tolerance|multigrid|poisson|all] [--out bench/results/solve.json] [--data DIR]
 //                    [--repeat R] [--sigmas 0.25,0.5,1] [--scales 2,1,0.5] [--amg θ,entries,aggressive-levels]
-#include <Eigen/IterativeLinearSolvers>
 #include <algorithm>
 #include <chrono>
+#include <Eigen/IterativeLinearSolvers>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -95,7 +95,8 @@ std::unique_ptr<VdbMatrix> vdbMatrix(const SparseMatrixF& L) {
         if (L.outerIndexPtr()[i + 1] - L.outerIndexPtr()[i] > int(kStencil)) return nullptr;
     auto A = std::make_unique<VdbMatrix>(openvdb::math::pcg::SizeType(L.rows()));
     for (int i = 0; i < L.rows(); ++i) {
-        for (SparseMatrixF::InnerIterator it(L, i); it; ++it) A->setValue(openvdb::math::pcg::SizeType(i), openvdb::math::pcg::SizeType(it.col()), it.value());
+        for (SparseMatrixF::InnerIterator it(L, i); it; ++it)
+            A->setValue(openvdb::math::pcg::SizeType(i), openvdb::math::pcg::SizeType(it.col()), it.value());
     }
     return A;
 }
@@ -184,8 +185,8 @@ nlohmann::json solvers(const Problem& p, double tolerance) {
             st = openvdb::math::pcg::solve(*vdbA, vb, vx, P, static_cast<const openvdb::math::pcg::State&>(term));
         });
         const std::vector<float> xs(vx.data(), vx.data() + n);
-        row["openvdb_pcg_jacobi"] = {{"median_s", s}, {"iterations", st.iterations}, {"success", st.success},
-                                     {"true_relative_residual", trueResidual(L, b, xs)}};
+        row["openvdb_pcg_jacobi"] = {
+            {"median_s", s}, {"iterations", st.iterations}, {"success", st.success}, {"true_relative_residual", trueResidual(L, b, xs)}};
     }
     // Ratios of solve times (> 1: ours is faster), our default (matrix-free, Jacobi, 2 threads) against the rest.
     const double oursS = row["ours_matrix_free_jacobi_2t"]["median_s"].get<double>();
@@ -213,11 +214,20 @@ nlohmann::json secNineRow(const Problem& p, double tolerance) {
     const GreenResult g = greensFunction(band, L, p.source, o);
     const double cg = seconds(t);
     const auto bb = band.bbox();
-    return {{"input", p.name}, {"sigma_rel", p.sigma}, {"h", band.voxelSize}, {"bbox_voxels", {bb.dim().x(), bb.dim().y(), bb.dim().z()}},
-            {"voxels", band.size()}, {"evaluated_voxels", p.stats.evaluated}, {"model_s", p.secondsModel},
-            {"resolution_s", p.secondsResolution}, {"band_s", p.secondsBand}, {"operators_s", ops},
+    return {{"input", p.name},
+            {"sigma_rel", p.sigma},
+            {"h", band.voxelSize},
+            {"bbox_voxels", {bb.dim().x(), bb.dim().y(), bb.dim().z()}},
+            {"voxels", band.size()},
+            {"evaluated_voxels", p.stats.evaluated},
+            {"model_s", p.secondsModel},
+            {"resolution_s", p.secondsResolution},
+            {"band_s", p.secondsBand},
+            {"operators_s", ops},
             {"band_and_operators_s", p.secondsModel + p.secondsResolution + p.secondsBand + ops},
-            {"cg_s", cg}, {"cg_iterations", g.solver.iterations}, {"cg_relative_residual", g.solver.relativeResidual}};
+            {"cg_s", cg},
+            {"cg_iterations", g.solver.iterations},
+            {"cg_relative_residual", g.solver.relativeResidual}};
 }
 
 /// The Green's function's system L f = e_y solved to 1e-6 … 1e-12 by the float PCG alone and by refinement in
@@ -230,12 +240,13 @@ nlohmann::json tolerances(const Problem& p) {
     std::vector<double> b(n, 0.0);
     b[nearestBandVoxel(band, p.source)] = 1.0;
     const Eigen::Map<const Eigen::VectorXd> bd(b.data(), long(n));
-    nlohmann::json row = {{"input", p.name}, {"sigma_rel", p.sigma}, {"h", band.voxelSize}, {"voxels", n}, {"runs", nlohmann::json::array()}};
+    nlohmann::json row = {
+        {"input", p.name}, {"sigma_rel", p.sigma}, {"h", band.voxelSize}, {"voxels", n}, {"runs", nlohmann::json::array()}};
     const char* names[] = {"automatic", "off", "always"};
-    for (auto [tolerance, refinement] : {std::pair{1e-6, Refinement::Off}, std::pair{1e-6, Refinement::Automatic},
-                                         std::pair{1e-6, Refinement::Always}, std::pair{1e-8, Refinement::Off},
-                                         std::pair{1e-8, Refinement::Automatic}, std::pair{1e-10, Refinement::Automatic},
-                                         std::pair{1e-12, Refinement::Automatic}}) {
+    for (auto [tolerance, refinement] :
+         {std::pair{1e-6, Refinement::Off}, std::pair{1e-6, Refinement::Automatic}, std::pair{1e-6, Refinement::Always},
+          std::pair{1e-8, Refinement::Off}, std::pair{1e-8, Refinement::Automatic}, std::pair{1e-10, Refinement::Automatic},
+          std::pair{1e-12, Refinement::Automatic}}) {
         PcgOptions o;
         o.tolerance = tolerance;
         o.maxIterations = 100000;
@@ -248,10 +259,15 @@ nlohmann::json tolerances(const Problem& p) {
             r = PcgSolver(L, o).solve(b, x);
         });
         const Eigen::Map<const Eigen::VectorXd> xd(x.data(), long(n));
-        const nlohmann::json run = {{"tolerance", tolerance}, {"refinement", names[int(refinement)]}, {"median_s", s},
-                                    {"iterations", r.iterations}, {"refinements", r.refinements},
-                                    {"inner_iterations", r.innerIterations}, {"restarts", r.restarts},
-                                    {"converged", r.converged}, {"relative_residual", r.relativeResidual},
+        const nlohmann::json run = {{"tolerance", tolerance},
+                                    {"refinement", names[int(refinement)]},
+                                    {"median_s", s},
+                                    {"iterations", r.iterations},
+                                    {"refinements", r.refinements},
+                                    {"inner_iterations", r.innerIterations},
+                                    {"restarts", r.restarts},
+                                    {"converged", r.converged},
+                                    {"relative_residual", r.relativeResidual},
                                     {"true_relative_residual", (bd - Ld * xd).norm() / bd.norm()},
                                     {"float_rounded_residual", r.floatResidual}};
         std::cout << run.dump() << std::endl;
@@ -284,8 +300,12 @@ nlohmann::json multigridRow(const Problem& p, double tolerance) {
             x.assign(n, 0.0f);
             r = solver.solve(b, x);
         });
-        nlohmann::json out = {{"operator_s", operatorS}, {"setup_s", setupS}, {"solve_s", s}, {"total_s", operatorS + setupS + s},
-                              {"iterations", r.iterations}, {"relative_residual", r.relativeResidual},
+        nlohmann::json out = {{"operator_s", operatorS},
+                              {"setup_s", setupS},
+                              {"solve_s", s},
+                              {"total_s", operatorS + setupS + s},
+                              {"iterations", r.iterations},
+                              {"relative_residual", r.relativeResidual},
                               {"bytes_per_voxel", double(solver.memoryBytes() + L.memoryBytes()) / double(n)}};
         if (const BoomerAmg* amg = solver.multigrid()) {
             out["levels"] = amg->levels();
@@ -342,7 +362,8 @@ nlohmann::json poissonRow(const Problem& p, double tolerance) {
         for (std::size_t i = 0; i < n; ++i) source.setValueOn(gpis.coord[i], i == y ? -1.0f : 0.0f);
         auto l2Residual = [&](const openvdb::FloatTree& x) {
             std::vector<double> u(n), Lu(n);
-            for (std::size_t i = 0; i < n; ++i) u[iso.index->tree().getValue(gpis.coord[i])] = double(x.getValue(gpis.coord[i])) / iso.voxelSize;
+            for (std::size_t i = 0; i < n; ++i)
+                u[iso.index->tree().getValue(gpis.coord[i])] = double(x.getValue(gpis.coord[i])) / iso.voxelSize;
             Liso.apply(u.data(), Lu.data());
             double s = 0;
             const std::size_t yi = std::size_t(iso.index->tree().getValue(gpis.coord[y]));
@@ -358,14 +379,14 @@ nlohmann::json poissonRow(const Problem& p, double tolerance) {
         const double s = median([&] {
             openvdb::util::NullInterrupter interrupter;
             result = state;
-            const auto halfDirichlet = [](const openvdb::Coord&, const openvdb::Coord&, double&, double& diagonal) {
-                diagonal -= 0.5;
-            };
+            const auto halfDirichlet = [](const openvdb::Coord&, const openvdb::Coord&, double&, double& diagonal) { diagonal -= 0.5; };
             x = openvdb::tools::poisson::solveWithBoundaryConditions(source, halfDirichlet, result, interrupter);
         });
         const double l2 = l2Residual(*x);
-        row["openvdb_poisson_jacobi"] = {{"iterations", result.iterations}, {"relative_error_inf", result.relativeError},
-                                         {"relative_residual_of_its_solution", l2}, {"success", result.success},
+        row["openvdb_poisson_jacobi"] = {{"iterations", result.iterations},
+                                         {"relative_error_inf", result.relativeError},
+                                         {"relative_residual_of_its_solution", l2},
+                                         {"success", result.success},
                                          {"total_s", s}};
     }
     // === Ours on the same voxels with T = I, then on the GPIS band
@@ -425,8 +446,7 @@ int main(int argc, char** argv) {
             gAmg.strongThreshold = v[0];
             gAmg.maxInterpolationEntries = int(v[1]);
             gAmg.aggressiveLevels = int(v[2]);
-        }
-        else {
+        } else {
             std::cerr << "usage: bench_solve [--part table|solvers|tolerance|multigrid|poisson|all] [--out FILE.json] [--data DIR] "
                          "[--repeat R] [--sigmas S,...] [--scales C,...] [--amg θ,entries,aggressive]\n";
             return 2;
@@ -440,7 +460,11 @@ int main(int argc, char** argv) {
     nlohmann::json report;
     {
         std::ifstream in(out);
-        if (in) try { in >> report; } catch (...) { report = nlohmann::json::object(); }
+        if (in) try {
+                in >> report;
+            } catch (...) {
+                report = nlohmann::json::object();
+            }
     }
     report["machine"] = "2-core x86-64 (project machine), 2 threads unless a key says 1t";
     if (part == "table" || part == "all") {

@@ -7,10 +7,10 @@
 #include <malloc.h>
 
 #include <Eigen/SparseCholesky>
-#include <Spectra/SymGEigsShiftSolver.h>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <Spectra/SymGEigsShiftSolver.h>
 #include <sstream>
 
 #include "gpisvdb/band/build_band.h"
@@ -105,9 +105,15 @@ nlohmann::json simplicialRun(const SparseMatrixD& L, const Eigen::VectorXd& mass
     lanczos.compute(Spectra::SortRule::LargestMagn, 1000, 1e-10, Spectra::SortRule::SmallestAlge);
     const double lanczosS = seconds(t);
     const Eigen::VectorXd values = lanczos.eigenvalues();
-    return {{"method", "simplicial"}, {"k", k}, {"factor_s", factorS}, {"lanczos_s", lanczosS}, {"total_s", factorS + lanczosS},
-            {"factor_nonzeros", factorNnz}, {"peak_bytes_above_band", peakBytes() - base},
-            {"lambda_0", values.size() ? values(0) : 0.0}, {"converged", lanczos.info() == Spectra::CompInfo::Successful}};
+    return {{"method", "simplicial"},
+            {"k", k},
+            {"factor_s", factorS},
+            {"lanczos_s", lanczosS},
+            {"total_s", factorS + lanczosS},
+            {"factor_nonzeros", factorNnz},
+            {"peak_bytes_above_band", peakBytes() - base},
+            {"lambda_0", values.size() ? values(0) : 0.0},
+            {"converged", lanczos.info() == Spectra::CompInfo::Successful}};
 }
 
 nlohmann::json cholmodRun(const SparseMatrixD& L, const Eigen::VectorXd& mass, int k) {
@@ -116,11 +122,21 @@ nlohmann::json cholmodRun(const SparseMatrixD& L, const Eigen::VectorXd& mass, i
     EigenOptions o;
     o.count = k;
     const EigenResult r = lowestEigenpairs(L, mass, o);
-    return {{"method", "cholmod"}, {"k", k}, {"factor_s", r.factorSeconds}, {"lanczos_s", r.lanczosSeconds},
-            {"total_s", r.factorSeconds + r.lanczosSeconds}, {"cholmod_peak_bytes", r.factorBytes},
-            {"factor_nonzeros", r.factorNonzeros}, {"ordering", r.ordering},
-            {"peak_bytes_above_band", peakBytes() - base}, {"lambda_0", r.values(0)}, {"max_residual", r.residuals.maxCoeff()},
-            {"orthonormality_error", r.orthonormalityError}, {"solves", r.solves}, {"restarts", r.restarts}, {"subspace", r.subspace}};
+    return {{"method", "cholmod"},
+            {"k", k},
+            {"factor_s", r.factorSeconds},
+            {"lanczos_s", r.lanczosSeconds},
+            {"total_s", r.factorSeconds + r.lanczosSeconds},
+            {"cholmod_peak_bytes", r.factorBytes},
+            {"factor_nonzeros", r.factorNonzeros},
+            {"ordering", r.ordering},
+            {"peak_bytes_above_band", peakBytes() - base},
+            {"lambda_0", r.values(0)},
+            {"max_residual", r.residuals.maxCoeff()},
+            {"orthonormality_error", r.orthonormalityError},
+            {"solves", r.solves},
+            {"restarts", r.restarts},
+            {"subspace", r.subspace}};
 }
 
 }  // namespace
@@ -158,9 +174,15 @@ int main(int argc, char** argv) {
             for (const std::string method : {"cholmod", "simplicial"}) {
                 if (methods.find(method) == std::string::npos) continue;
                 nlohmann::json row = method == "cholmod" ? cholmodRun(L, mass, int(k)) : simplicialRun(L, mass, int(k));
-                row.update({{"input", "bunny"}, {"sigma_rel", sigma}, {"h", bo.voxelSize}, {"h_over_hstar", scale},
-                            {"voxels", band.size()}, {"band_s", bandS}, {"resident_bytes_before", bandBytes},
-                            {"L_nonzeros", L.nonZeros()}, {"blas", blasName()}});
+                row.update({{"input", "bunny"},
+                            {"sigma_rel", sigma},
+                            {"h", bo.voxelSize},
+                            {"h_over_hstar", scale},
+                            {"voxels", band.size()},
+                            {"band_s", bandS},
+                            {"resident_bytes_before", bandBytes},
+                            {"L_nonzeros", L.nonZeros()},
+                            {"blas", blasName()}});
                 row["peak_bytes"] = bandBytes + row["peak_bytes_above_band"].get<double>();
                 std::cerr << row.dump() << "\n";
                 results["runs"].push_back(row);

@@ -100,9 +100,9 @@ int main(int argc, char** argv) {
         const double secondsBand = std::chrono::duration<double>(Clock::now() - t0).count();
         const LaplacianOperator L(band);
         const NaiveLaplacianOperator K(band);
-        nlohmann::json row = {{"sigma_rel", sigma}, {"h", band.voxelSize}, {"h_over_wmu", band.voxelSize / res.muWidth},
-                              {"h_star", res.hStar}, {"w_mu", res.muWidth}, {"eta_rel", eta},
-                              {"voxels", band.size()}, {"mass", band.mass()}, {"max_stencil_l1", br.stats.maxStencilL1},
+        nlohmann::json row = {{"sigma_rel", sigma},         {"h", band.voxelSize}, {"h_over_wmu", band.voxelSize / res.muWidth},
+                              {"h_star", res.hStar},        {"w_mu", res.muWidth}, {"eta_rel", eta},
+                              {"voxels", band.size()},      {"mass", band.mass()}, {"max_stencil_l1", br.stats.maxStencilL1},
                               {"seconds_band", secondsBand}};
         for (const TestFunction& tf : kFunctions) {
             std::vector<float> f(band.size());
@@ -133,7 +133,7 @@ int main(int argc, char** argv) {
             row[tf.name]["naive_error_vs_mean_surface"] = row[tf.name]["naive"].get<double>() / ref - 1;
         }
     }
-    nlohmann::json report = {{"command", "validate_energy"}, {"sphere_level", level}, {"triangles", soup.triangles.size()},
+    nlohmann::json report = {{"command", "validate_energy"},    {"sphere_level", level},     {"triangles", soup.triangles.size()},
                              {"reference_8pi_3", 8 * M_PI / 3}, {"mean_surface", reference}, {"rows", rows}};
     std::cout << report.dump(2) << std::endl;
     std::ofstream(out) << report.dump(2) << "\n";

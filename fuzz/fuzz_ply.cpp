@@ -1,4 +1,5 @@
-// libFuzzer target: the PLY reader (ascii and binary, either endianness), through readInput (the format's parser and the checks on what it read).
+// libFuzzer target: the PLY reader (ascii and binary, either endianness), through readInput (the format's parser and the checks on what it
+// read).
 #include "fuzz_common.h"
 #include "gpisvdb/input/read_input.h"
 

@@ -34,7 +34,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
                 (void)s.wsSample(openvdb::Vec3d(0.25, 0.5, 0.75));
             });
         }
-        for (const std::string& spec : {path, path + ":vel", path + ":" + (file.grids->empty() ? std::string("x") : (*file.grids)[0]->getName())}) {
+        for (const std::string& spec :
+             {path, path + ":vel", path + ":" + (file.grids->empty() ? std::string("x") : (*file.grids)[0]->getName())}) {
             expectRefusal([&] {
                 const auto [p, name] = VdbFile::splitSpec(spec);
                 const auto field = file.vectorGrid(name);

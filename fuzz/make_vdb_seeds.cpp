@@ -36,8 +36,11 @@ int main(int argc, char** argv) {
     using openvdb::FloatGrid, openvdb::Vec3SGrid, openvdb::Vec3s;
     write(dir + "/band.vdb", {grid<FloatGrid>("mu", 1.f, 0.1), grid<FloatGrid>("mean", 0.5f, 0.1)}, 0.5, false, openvdb::io::COMPRESS_ZIP);
     write(dir + "/field.vdb", {grid<Vec3SGrid>("vel", Vec3s(1, 0, 0), 0.5)}, std::nan(""), false, openvdb::io::COMPRESS_ZIP);
-    write(dir + "/two_fields.vdb", {grid<Vec3SGrid>("a", Vec3s(0, 1, 0), 1), grid<Vec3SGrid>("vel", Vec3s(0, 0, 1), 1), grid<FloatGrid>("mean", 0.f, 1)}, 0, false, openvdb::io::COMPRESS_NONE);
-    write(dir + "/half.vdb", {grid<FloatGrid>("mean", 0.25f, 0.2), grid<Vec3SGrid>("vel", Vec3s(1, 2, 3), 0.2)}, 0.5, true, openvdb::io::COMPRESS_BLOSC);
+    write(dir + "/two_fields.vdb",
+          {grid<Vec3SGrid>("a", Vec3s(0, 1, 0), 1), grid<Vec3SGrid>("vel", Vec3s(0, 0, 1), 1), grid<FloatGrid>("mean", 0.f, 1)}, 0, false,
+          openvdb::io::COMPRESS_NONE);
+    write(dir + "/half.vdb", {grid<FloatGrid>("mean", 0.25f, 0.2), grid<Vec3SGrid>("vel", Vec3s(1, 2, 3), 0.2)}, 0.5, true,
+          openvdb::io::COMPRESS_BLOSC);
     write(dir + "/empty.vdb", {}, 0.5, false, openvdb::io::COMPRESS_NONE);
     return 0;
 }

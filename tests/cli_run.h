@@ -53,9 +53,8 @@ inline pid_t spawn(std::vector<std::string> words, const std::string& errPath, c
     std::vector<std::string> vars = env;
     for (char** e = environ; *e; ++e) {
         const std::string var(*e);
-        const bool replaced = std::any_of(env.begin(), env.end(), [&](const std::string& v) {
-            return var.compare(0, v.find('=') + 1, v, 0, v.find('=') + 1) == 0;
-        });
+        const bool replaced = std::any_of(
+            env.begin(), env.end(), [&](const std::string& v) { return var.compare(0, v.find('=') + 1, v, 0, v.find('=') + 1) == 0; });
         if (!replaced) vars.push_back(var);
     }
     // Both arrays are made before fork: only async-signal-safe calls between fork and exec

@@ -57,7 +57,8 @@ inline const std::vector<std::string>& bunnyBands() {
         std::vector<std::string> out;
         for (const char* h : {"0.25", "0.15"}) {
             out.push_back(temp(std::string("memory_band_") + h + ".vdb"));
-            const Run r = run("band " + gpisvdb::test::dataPath("bunny.obj") + " --sigma 2 --voxel-size " + h + " --quiet -o " + out.back());
+            const Run r =
+                run("band " + gpisvdb::test::dataPath("bunny.obj") + " --sigma 2 --voxel-size " + h + " --quiet -o " + out.back());
             if (r.code != 0) throw std::runtime_error("band: " + r.err);
         }
         return out;

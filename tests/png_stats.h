@@ -12,8 +12,8 @@ namespace gpisvdb::test {
 struct PngStats {
     bool readable = false;
     int width = 0, height = 0;
-    std::size_t colours = 0;   ///< distinct RGB values
-    double nonWhite = 0;       ///< fraction of pixels that are not (near) white
+    std::size_t colours = 0;  ///< distinct RGB values
+    double nonWhite = 0;      ///< fraction of pixels that are not (near) white
 };
 
 inline PngStats pngStats(const std::string& path) {

@@ -1,6 +1,6 @@
 #include <catch2/catch.hpp>
-#include <Eigen/SparseCholesky>
 #include <cmath>
+#include <Eigen/SparseCholesky>
 #include <random>
 #include <tbb/global_control.h>
 
@@ -113,8 +113,8 @@ TEST_CASE("aggregation multigrid: PCG reaches the direct solution with a fractio
     PcgOptions jacobi = aggregationOptions(1e-6);
     jacobi.preconditioner = Preconditioner::Jacobi;
     const PcgResult rj = solvePcg(L, b, xj, jacobi);
-    INFO(band.size() << " voxels: aggregation " << r.iterations << " iterations (" << r.multigridLevels
-                     << " levels), Jacobi " << rj.iterations);
+    INFO(band.size() << " voxels: aggregation " << r.iterations << " iterations (" << r.multigridLevels << " levels), Jacobi "
+                     << rj.iterations);
     REQUIRE(r.converged);
     REQUIRE(rj.converged);
     CHECK(8 * r.iterations <= rj.iterations);
@@ -137,8 +137,8 @@ TEST_CASE("aggregation multigrid: the K-cycle with flexible CG needs no more ite
         v.aggregation.kCycle = false;
         std::vector<float> xv, xk;
         const PcgResult rv = solvePcg(L, b, xv, v), rk = solvePcg(L, b, xk, k);
-        INFO(band->size() << " voxels: V-cycle " << rv.iterations << " iterations, K-cycle " << rk.iterations << " ("
-                          << rk.restarts << " restarts)");
+        INFO(band->size() << " voxels: V-cycle " << rv.iterations << " iterations, K-cycle " << rk.iterations << " (" << rk.restarts
+                          << " restarts)");
         REQUIRE(rv.converged);
         REQUIRE(rk.converged);
         CHECK(rk.iterations <= rv.iterations);

@@ -1,9 +1,9 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
-#include <map>
-#include <random>
 #include <malloc.h>
+#include <map>
 #include <memory>
+#include <random>
 #include <tbb/global_control.h>
 #include <tuple>
 
@@ -266,7 +266,9 @@ TEST_CASE("band: malloc maps large blocks again after a build, finished or refus
     CHECK(mappedBlockAfter() == 1);
 }
 
-TEST_CASE("band: channels hold Kac-Rice at the voxel centres, the index tree maps back, stencils rebuild T, bytes per voxel count the containers", "[band]") {
+TEST_CASE(
+    "band: channels hold Kac-Rice at the voxel centres, the index tree maps back, stencils rebuild T, bytes per voxel count the containers",
+    "[band]") {
     const Fixture f = bunny(1.0);
     BandOptions o;
     o.voxelSize = 0.3;
@@ -312,15 +314,14 @@ TEST_CASE("band: channels hold Kac-Rice at the voxel centres, the index tree map
     // voxel) and the index tree's nodes (Int32Tree = root → 32³ → 16³ → 8³: a leaf holds 512 4-byte values and a
     // value mask, an internal node 8-byte value/child unions and two masks). All of that must be counted; beyond
     // it OpenVDB's memUsage adds only node headers and the root's map, measured here 0.11%: bound 1%.
-    const std::size_t perVoxel = sizeof(openvdb::Coord) + sizeof(float) + sizeof(std::array<float, 6>) +
-                                 2 * sizeof(float) + sizeof(openvdb::Vec3f) + sizeof(VoxelStencil);
+    const std::size_t perVoxel = sizeof(openvdb::Coord) + sizeof(float) + sizeof(std::array<float, 6>) + 2 * sizeof(float) +
+                                 sizeof(openvdb::Vec3f) + sizeof(VoxelStencil);
     const std::vector<openvdb::Index32> nodes = b.index->tree().nodeCount();  // by level: leaf, 16³, 32³, root
     REQUIRE(nodes.size() == 4);
-    const double tree = nodes[0] * (512.0 * 4 + 64) + nodes[1] * (4096.0 * 8 + 2 * 512) +
-                        nodes[2] * (32768.0 * 8 + 2 * 4096);
+    const double tree = nodes[0] * (512.0 * 4 + 64) + nodes[1] * (4096.0 * 8 + 2 * 512) + nodes[2] * (32768.0 * 8 + 2 * 4096);
     const double counted = (double(perVoxel) * double(b.size()) + tree) / double(b.size());
-    INFO(b.size() << " voxels, nodes " << nodes[0] << " / " << nodes[1] << " / " << nodes[2] << ": bytes per voxel "
-                  << b.bytesPerVoxel() << ", counted " << counted);
+    INFO(b.size() << " voxels, nodes " << nodes[0] << " / " << nodes[1] << " / " << nodes[2] << ": bytes per voxel " << b.bytesPerVoxel()
+                  << ", counted " << counted);
     CHECK(b.bytesPerVoxel() >= (1 - 1e-12) * counted);
     CHECK(b.bytesPerVoxel() <= 1.01 * counted);
 }
@@ -426,7 +427,7 @@ TEST_CASE("band: the resolution from every k-th sample keeps w_mu and the cross-
     const LoadedModel cloud = loadModel(data);
     const Fixture bunnySoup = bunny(0.5);
     const std::vector<std::pair<const GpisModel*, const Samples*>> inputs = {{cloud.model.get(), &cloud.input.samples},
-                                                                              {bunnySoup.model.get(), &bunnySoup.samples}};
+                                                                             {bunnySoup.model.get(), &bunnySoup.samples}};
     for (const auto& [model, samples] : inputs) {
         ResolutionOptions all;
         all.maxSamples = 0;
@@ -435,8 +436,8 @@ TEST_CASE("band: the resolution from every k-th sample keeps w_mu and the cross-
             ResolutionOptions some;
             some.maxSamples = most;
             const Resolution sub = chooseResolution(*model, *samples, some);
-            INFO(samples->size() << " samples, at most " << most << ": w_mu " << sub.muWidth << " / " << every.muWidth
-                                 << ", cross-section " << sub.bandVolume << " / " << every.bandVolume);
+            INFO(samples->size() << " samples, at most " << most << ": w_mu " << sub.muWidth << " / " << every.muWidth << ", cross-section "
+                                 << sub.bandVolume << " / " << every.bandVolume);
             CHECK(sub.area == every.area);
             CHECK(sub.muWidth == Approx(every.muWidth).epsilon(0.01));
             CHECK(sub.bandVolume == Approx(every.bandVolume).epsilon(0.01));
@@ -508,7 +509,10 @@ TEST_CASE("band: errors name the Options field, never a command-line flag", "[ba
     CHECK(Error("no parameter").parameters().empty());
 }
 
-TEST_CASE("band: the default band is buildBand with u and the voxel budget resolved, and is refused past its memory limit naming the voxel size that fits", "[band]") {
+TEST_CASE(
+    "band: the default band is buildBand with u and the voxel budget resolved, and is refused past its memory limit naming the voxel size "
+    "that fits",
+    "[band]") {
     const InputData data = readInput(test::dataPath("bunny.obj"));
     ModelOptions mo;
     mo.sigmaRel = 2;
@@ -557,8 +561,8 @@ TEST_CASE("band: the default band is buildBand with u and the voxel budget resol
     }
 }
 
-
-TEST_CASE("band: with voxel values the expected area holds and no voxel the mean surface crosses is left out, at h / w from 2 to 16", "[band]") {
+TEST_CASE("band: with voxel values the expected area holds and no voxel the mean surface crosses is left out, at h / w from 2 to 16",
+          "[band]") {
     // The random sphere above (expected area 4π(r² + w²), mean surface |x| = r) at voxels far coarser than μ's width
     // w, where the centres miss the μ shell: each voxel holds its own share, so the band's mass stays the expected area
     // to the linearisation of the sphere across a voxel (measured ≤ 0.2 % at h = 0.08 r), and every voxel that the
@@ -622,8 +626,7 @@ TEST_CASE("band: voxel values equal point values where h <= w_mu, in the expecte
     const Band point = buildBand(model, ss.samples, o).band;
     o.voxelValues = true;
     const Band voxel = buildBand(model, ss.samples, o).band;
-    INFO("point: " << point.size() << " voxels, mass " << point.mass() << "; voxel: " << voxel.size() << " voxels, mass "
-                   << voxel.mass());
+    INFO("point: " << point.size() << " voxels, mass " << point.mass() << "; voxel: " << voxel.size() << " voxels, mass " << voxel.mass());
     CHECK(std::abs(voxel.mass() / point.mass() - 1) <= 0.01);
     auto acc = voxel.index->getConstAccessor();
     double d2 = 0, m2 = 0;

@@ -6,8 +6,8 @@
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/point_cloud.h"
 #include "gpisvdb/input/procedural.h"
-#include "gpisvdb/input/triangle_soup.h"
 #include "gpisvdb/input/read_input.h"
+#include "gpisvdb/input/triangle_soup.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
 #include "helpers.h"
 
@@ -54,7 +54,7 @@ TEST_CASE("band forecast: the pilot's region is compact boxes centred on sample 
         for (const openvdb::CoordBBox& box : region.boxes) {
             CHECK(box.dim() == Coord(2 * radius + 1));
             CHECK(std::binary_search(seeds.begin(), seeds.end(), Coord::round(box.getCenter())));  // centred on a sample voxel
-            CHECK(double(box.volume()) < 0.1 * double(all.volume()));  // a patch, not the shape
+            CHECK(double(box.volume()) < 0.1 * double(all.volume()));                              // a patch, not the shape
         }
         CHECK(region.seeds.size() >= 8 * std::size_t(radius));
     }
@@ -79,7 +79,8 @@ TEST_CASE("band forecast: the band's voxels and evaluated voxels are within 25 %
         const BandForecast f = forecastBand(model, c.samples, plan, fo);
         const DefaultBand built = buildPlannedBand(model, c.samples, plan);
         const double voxels = double(built.result.band.size()), evaluated = double(built.result.stats.evaluated);
-        INFO("area " << plan.resolution.area << " bandVolume " << plan.resolution.bandVolume << " h " << plan.options.voxelSize << " w " << plan.resolution.muWidth << " mass " << built.result.band.mass());
+        INFO("area " << plan.resolution.area << " bandVolume " << plan.resolution.bandVolume << " h " << plan.options.voxelSize << " w "
+                     << plan.resolution.muWidth << " mass " << built.result.band.mass());
         INFO("voxels " << voxels << " forecast " << f.voxels << ", evaluated " << evaluated << " forecast " << f.evaluated);
         CHECK(f.voxels == Approx(voxels).epsilon(0.25));
         CHECK(f.evaluated == Approx(evaluated).epsilon(0.25));

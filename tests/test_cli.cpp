@@ -1,10 +1,10 @@
 // End-to-end tests of the gpisvdb program: exit codes, one-line errors, no partial outputs.
 #include <sys/wait.h>
 
-#include <Eigen/Eigenvalues>
-#include <catch2/catch.hpp>
-#include <filesystem>
 #include <array>
+#include <catch2/catch.hpp>
+#include <Eigen/Eigenvalues>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <map>
@@ -20,13 +20,13 @@
 #include <vtkSmartPointer.h>
 #include <vtkXMLPolyDataReader.h>
 
-#include "gpisvdb/output/mean_surface.h"
 #include "cli_run.h"
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/kacrice/kac_rice.h"
 #include "gpisvdb/model/direct_gpis.h"
-#include "png_stats.h"
+#include "gpisvdb/output/mean_surface.h"
 #include "helpers.h"
+#include "png_stats.h"
 
 namespace fs = std::filesystem;
 
@@ -295,10 +295,14 @@ TEST_CASE("cli: bad input and parameters give one line on stderr naming the flag
         // Absurd requests, refused before any attempt (docs/guide.md#limits)
         {"evaluate " + temp("huge.off", "OFF\n1000000000 1 0\n0 0 0\n") + " --at " + pts + " -o " + out,
          "1000000000 vertices declared, more than the 1e+08 samples an input may hold"},
-        {"band " + temp("huge.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                                    "element face 200000000\nproperty list uchar int vertex_indices\nend_header\n") + " -o " + vdb,
+        {"band " +
+             temp("huge.ply",
+                  "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                  "element face 200000000\nproperty list uchar int vertex_indices\nend_header\n") +
+             " -o " + vdb,
          "200000000 face elements declared, more than the 1e+08 samples"},
-        {"band " + bunny + " -o " + vdb + " --voxel-size 0.006 --sigma 2 --max-memory 1000000G", "a band can hold: use a voxel size (--voxel-size) of"},
+        {"band " + bunny + " -o " + vdb + " --voxel-size 0.006 --sigma 2 --max-memory 1000000G",
+         "a band can hold: use a voxel size (--voxel-size) of"},
     };
     for (const Case& c : cases) {
         fs::remove(out);
@@ -386,8 +390,7 @@ std::pair<std::size_t, openvdb::Coord> nearestActiveVoxel(const openvdb::FloatGr
 
 /// The `band` and `parameters` parts of a report (docs/band.md) against the file's own "mu" grid (count, voxel
 /// size from its transform, mass h³ Σ μ, bounding box, μ > η everywhere) and against the input read here (ℓ, σ).
-void checkBandReport(const nlohmann::json& report, const std::string& vdb, const std::string& input, double sigmaRel,
-                     double voxelSize) {
+void checkBandReport(const nlohmann::json& report, const std::string& vdb, const std::string& input, double sigmaRel, double voxelSize) {
     const auto mu = readFloatGrid(vdb, "mu");
     REQUIRE(mu);
     const auto& band = report["band"];
@@ -407,7 +410,7 @@ void checkBandReport(const nlohmann::json& report, const std::string& vdb, const
     const double eta = par["eta"].get<double>();
     CHECK(eta == Approx(par["eta_rel"].get<double>() * band["median_mu_at_samples"].get<double>()).epsilon(1e-12));
     CHECK(lowest >= eta * (1 - 1e-6));  // Ω = {μ > η}
-    CHECK(lowest < 4 * eta);             // ... and its edge reaches down to η (26-neighbour BFS, h ≲ the μ width)
+    CHECK(lowest < 4 * eta);            // ... and its edge reaches down to η (26-neighbour BFS, h ≲ the μ width)
     const gpisvdb::Samples s = gpisvdb::makeSamples(gpisvdb::readInput(input), {sigmaRel}).samples;
     CHECK(report["input"]["samples"].get<std::size_t>() == s.size());
     CHECK(report["input"]["length_scale"].get<double>() == Approx(s.lengthScale).epsilon(1e-12));
@@ -428,9 +431,8 @@ TEST_CASE("cli: band writes a readable .vdb and a JSON report whose values match
     std::stringstream ss;
     ss << in.rdbuf();
     const std::string report = ss.str();
-    for (const char* key : {"\"voxels\"", "\"voxel_size\"", "\"bbox_voxels\"", "\"mass\"", "\"max_stencil_l1\"",
-                            "\"sigma_rel\"", "\"sigma\"", "\"model\"", "\"band\"", "\"total\"", "\"peak_rss_bytes\"",
-                            "\"band_bytes_per_voxel\""})
+    for (const char* key : {"\"voxels\"", "\"voxel_size\"", "\"bbox_voxels\"", "\"mass\"", "\"max_stencil_l1\"", "\"sigma_rel\"",
+                            "\"sigma\"", "\"model\"", "\"band\"", "\"total\"", "\"peak_rss_bytes\"", "\"band_bytes_per_voxel\""})
         CHECK_THAT(report, Catch::Contains(key));
     checkBandReport(nlohmann::json::parse(report), vdb, gpisvdb::test::dataPath("bunny.obj"), 2, 0.4);
     const int status = std::system(("vdb_print " + vdb + " > /dev/null 2>&1").c_str());
@@ -571,7 +573,8 @@ TEST_CASE("cli: green writes 'green': positive, largest at the nearest voxel to 
     std::ostringstream src;
     src << std::setprecision(17) << xw[0] << ',' << xw[1] << ',' << xw[2];
     REQUIRE(run("green " + gpisvdb::test::dataPath("bunny.obj") + " --source " + src.str() + " -o " + vdb2 +
-                " --sigma 2 --voxel-size 0.4 --preconditioner ic --quiet").code == 0);
+                " --sigma 2 --voxel-size 0.4 --preconditioner ic --quiet")
+                .code == 0);
     const auto G2 = readFloatGrid(vdb2, "green");
     REQUIRE(G2);
     INFO("G(x,y) " << G->tree().getValue(x) << ", G(y,x) " << G2->tree().getValue(y));
@@ -656,8 +659,8 @@ TEST_CASE("cli: hodge succeeds at its default tolerance where the float PCG alon
 TEST_CASE("cli: green reaches --tolerance 1e-10 by refinement and reports the float grid's own residual", "[cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), green = temp("green_tight.json");
     const std::string vdb = temp("green_tight.vdb");
-    const Run g = run("green " + bunny + " --source 0.5,6,1 --sigma 2 --voxel-size 0.4 --tolerance 1e-10 -o " + vdb +
-                      " --report " + green + " --quiet");
+    const Run g = run("green " + bunny + " --source 0.5,6,1 --sigma 2 --voxel-size 0.4 --tolerance 1e-10 -o " + vdb + " --report " + green +
+                      " --quiet");
     INFO(g.err);
     REQUIRE(g.code == 0);
     const nlohmann::json gs = nlohmann::json::parse(std::ifstream(green))["solver"];
@@ -709,8 +712,8 @@ TEST_CASE("cli: hodge writes vec3 parts that sum to the input with the reported 
         T << d[0], o[0], o[1], o[0], d[1], o[2], o[1], o[2], d[2];
         Eigen::SelfAdjointEigenSolver<Mat3d> eig(T);
         const Vec3d lambda = eig.eigenvalues().cwiseMax(1e-6 * eig.eigenvalues().maxCoeff());
-        const Mat3d S = double(*it) * double(*it) * eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() *
-                        eig.eigenvectors().transpose();
+        const Mat3d S =
+            double(*it) * double(*it) * eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
         auto vec = [&](const openvdb::Vec3SGrid::ConstAccessor& acc) {
             const openvdb::Vec3f v = acc.getValue(c);
             return Vec3d(v[0], v[1], v[2]);
@@ -747,8 +750,8 @@ TEST_CASE("cli: hodge writes vec3 parts that sum to the input with the reported 
 
 TEST_CASE("cli: distance writes a dense smoothed_distance grid, a level set and its mesh, as the report says", "[cli]") {
     const std::string vdb = temp("distance.vdb"), json = temp("distance.json"), ply = temp("offset.ply");
-    const Run r = run("distance " + gpisvdb::test::dataPath("bunny.obj") + " --alpha 5 --grid-voxel-size 0.5 --level 0.3 --mesh " +
-                      ply + " -o " + vdb + " --report " + json + " --sigma 2 --voxel-size 0.4 --quiet");
+    const Run r = run("distance " + gpisvdb::test::dataPath("bunny.obj") + " --alpha 5 --grid-voxel-size 0.5 --level 0.3 --mesh " + ply +
+                      " -o " + vdb + " --report " + json + " --sigma 2 --voxel-size 0.4 --quiet");
     INFO(r.err);
     REQUIRE(r.code == 0);
     std::ifstream in(json);
@@ -823,13 +826,14 @@ TEST_CASE("cli: --model regression runs the band and green commands, from genera
                           std::to_string(scale * z) + "," + std::to_string(label) + "\n";
         }
     }
-    const Run fromFile = run("band " + cloud + " --model regression --labels " + temp("labels.csv", labels) +
-                             " --voxel-size 0.08 -o " + vdb + " --quiet");
+    const Run fromFile =
+        run("band " + cloud + " --model regression --labels " + temp("labels.csv", labels) + " --voxel-size 0.08 -o " + vdb + " --quiet");
     INFO(fromFile.err);
     CHECK(fromFile.code == 0);
 }
 
-TEST_CASE("cli: spectrum writes k M-orthonormal eigen_000 ... grids, their ascending eigenvalues and small residuals in the report", "[cli]") {
+TEST_CASE("cli: spectrum writes k M-orthonormal eigen_000 ... grids, their ascending eigenvalues and small residuals in the report",
+          "[cli]") {
     const std::string vdb = temp("spectrum.vdb"), json = temp("spectrum.json");
     const Run r = run("spectrum " + gpisvdb::test::dataPath("bunny.obj") + " -k 6 -o " + vdb + " --report " + json +
                       " --sigma 2 --voxel-size 0.4 --quiet");
@@ -907,8 +911,8 @@ TEST_CASE("cli: regress interpolates exact data and writes regression_mean and r
     }
     REQUIRE(count == 5);
     const std::string vdb = temp("regress.vdb"), json = temp("regress.json");
-    const Run r = run("regress " + gpisvdb::test::dataPath("bunny.obj") + " --data " + temp("regress.csv", csv) +
-                      " -k 30 --nu 2.5 -o " + vdb + " --report " + json + " --sigma 2 --voxel-size 0.4 --quiet");
+    const Run r = run("regress " + gpisvdb::test::dataPath("bunny.obj") + " --data " + temp("regress.csv", csv) + " -k 30 --nu 2.5 -o " +
+                      vdb + " --report " + json + " --sigma 2 --voxel-size 0.4 --quiet");
     INFO(r.err);
     REQUIRE(r.code == 0);
     const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
@@ -934,7 +938,9 @@ TEST_CASE("cli: regress interpolates exact data and writes regression_mean and r
     file.close();
 }
 
-TEST_CASE("cli: geodesic writes 'geodesic', 0 at the source and as reported at the targets, and bunny paths that keep near the mean surface", "[cli]") {
+TEST_CASE(
+    "cli: geodesic writes 'geodesic', 0 at the source and as reported at the targets, and bunny paths that keep near the mean surface",
+    "[cli]") {
     const std::string vdb = temp("geo.vdb"), json = temp("geo.json"), paths = temp("geo_paths.json"), obj = temp("geo_paths.obj"),
                       vtp = temp("geo_paths.vtp");
     const std::string common = "geodesic " + gpisvdb::test::dataPath("bunny.obj") +
@@ -1006,7 +1012,8 @@ TEST_CASE("cli: geodesic writes 'geodesic', 0 at the source and as reported at t
         double length = 0;
         const auto& pts = p["paths"][k]["points"];
         for (std::size_t i = 1; i < pts.size(); ++i)
-            length += (openvdb::Vec3d(pts[i][0], pts[i][1], pts[i][2]) - openvdb::Vec3d(pts[i - 1][0], pts[i - 1][1], pts[i - 1][2])).length();
+            length +=
+                (openvdb::Vec3d(pts[i][0], pts[i][1], pts[i][2]) - openvdb::Vec3d(pts[i - 1][0], pts[i - 1][1], pts[i - 1][2])).length();
         CHECK(rp["length"].get<double>() == Approx(length).epsilon(1e-5));
     }
 
@@ -1027,8 +1034,8 @@ TEST_CASE("cli: geodesic writes 'geodesic', 0 at the source and as reported at t
 }
 
 TEST_CASE("cli: every subcommand has --help with an example, and refuses unknown flags and missing arguments", "[cli]") {
-    const std::vector<std::string> commands = {"info", "evaluate", "demo", "band", "green", "spectrum", "regress",
-                                               "geodesic", "hodge", "distance", "mesh", "render", "sample", "surfaces", "query"};
+    const std::vector<std::string> commands = {"info",  "evaluate", "demo", "band",   "green",  "spectrum", "regress", "geodesic",
+                                               "hodge", "distance", "mesh", "render", "sample", "surfaces", "query"};
     const Run top = run("--help");
     CHECK(top.code == 0);
     CHECK_THAT(top.out, Catch::Contains("Exit codes"));
@@ -1052,9 +1059,13 @@ TEST_CASE("cli: an interrupted run exits 130 and leaves no file at the output pa
     const std::string vdb = temp("interrupted.vdb"), json = temp("interrupted.json");
     // At the default voxel size the bunny's band (σ_rel 0.5, h = 1.25 w_μ) has ~320 k voxels: seconds of work,
     // interrupted at its first progress line.
-    const std::vector<std::pair<std::string, std::string>> commands = {
-        {"band", ""}, {"green", "--source 0.5,6,1"}, {"geodesic", "--source 0.5,6,1"}, {"spectrum", "-k 4"},
-        {"hodge", "--preset mixed"}, {"distance", "--alpha 20"}, {"regress", "--data " + temp("int.csv", "0,6,0,1\n")}};
+    const std::vector<std::pair<std::string, std::string>> commands = {{"band", ""},
+                                                                       {"green", "--source 0.5,6,1"},
+                                                                       {"geodesic", "--source 0.5,6,1"},
+                                                                       {"spectrum", "-k 4"},
+                                                                       {"hodge", "--preset mixed"},
+                                                                       {"distance", "--alpha 20"},
+                                                                       {"regress", "--data " + temp("int.csv", "0,6,0,1\n")}};
     for (const auto& [command, flags] : commands) {
         INFO(command);
         fs::remove(vdb);
@@ -1172,8 +1183,8 @@ TEST_CASE("cli: --half stores 16-bit grids that vdb_print and pyopenvdb read, va
     const auto at = py.out.find("worst ");
     REQUIRE(at != std::string::npos);
     const double worst = std::stod(py.out.substr(at + 6));
-    CHECK(worst > 0);       // the values were rounded ...
-    CHECK(worst < 2e-3);    // ... to half precision (2^-11 relative)
+    CHECK(worst > 0);     // the values were rounded ...
+    CHECK(worst < 2e-3);  // ... to half precision (2^-11 relative)
 }
 
 TEST_CASE("cli: progress bars on a terminal only, never when stderr is piped or with --quiet", "[cli]") {
@@ -1384,15 +1395,14 @@ TEST_CASE("cli: the band-voxel budget sets the default voxel size and says so, a
     report = nlohmann::json::parse(std::ifstream(json));
     CHECK(report["parameters"]["voxel_values"].get<std::string>() == "voxel");
     CHECK(report["parameters"]["smoothing_set_by"].get<std::string>() == "voxel size");
-    CHECK(report["parameters"]["smoothing"].get<double>() ==
-          Approx(2 * report["parameters"]["voxel_size"].get<double>()).epsilon(1e-12));
+    CHECK(report["parameters"]["smoothing"].get<double>() == Approx(2 * report["parameters"]["voxel_size"].get<double>()).epsilon(1e-12));
     const std::string finer = temp("budget_finer.json");
     const Run f = run("band " + cloud + " -o " + temp("budget_finer.vdb") + " --report " + finer +
                       " --max-voxels 200000 --voxel-values voxel --quiet");
     REQUIRE(f.code == 0);
     const nlohmann::json fine = nlohmann::json::parse(std::ifstream(finer));
-    INFO("mass " << report["band"]["mass"] << " at h " << report["parameters"]["voxel_size"] << ", " << fine["band"]["mass"]
-                 << " at h " << fine["parameters"]["voxel_size"]);
+    INFO("mass " << report["band"]["mass"] << " at h " << report["parameters"]["voxel_size"] << ", " << fine["band"]["mass"] << " at h "
+                 << fine["parameters"]["voxel_size"]);
     CHECK(report["band"]["mass"].get<double>() == Approx(fine["band"]["mass"].get<double>()).epsilon(0.03));
     // Without the budget the default band does not fit the same limit; a given voxel size is refused as before.
     const std::string refused = temp("budget_refused.vdb");
@@ -1446,8 +1456,7 @@ TEST_CASE("cli: info forecasts the default band, its voxel size exactly and its 
         INFO(i.err);
         REQUIRE(i.code == 0);
         CHECK_THAT(i.out, Catch::Contains("default band (what `gpisvdb band` with these flags would build"));
-        CHECK_THAT(i.out, Catch::Contains("w_mu") && Catch::Contains("voxels:") && Catch::Contains("memory:") &&
-                              Catch::Contains("time:"));
+        CHECK_THAT(i.out, Catch::Contains("w_mu") && Catch::Contains("voxels:") && Catch::Contains("memory:") && Catch::Contains("time:"));
         REQUIRE(run("band " + input + flags + " -o " + temp("forecast.vdb") + " --report " + band + " --quiet").code == 0);
         const nlohmann::json f = nlohmann::json::parse(std::ifstream(info))["forecast"];
         const nlohmann::json b = nlohmann::json::parse(std::ifstream(band));

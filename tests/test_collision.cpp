@@ -42,8 +42,8 @@ TEST_CASE("collision: a mesh the size of a point collides with the point's proba
     for (const double z : {0.7, 0.9, 0.97, 1.05, 1.2}) {
         const Vec3d x(0.1, 0.05, z);
         const double inside = insideProbability(sphere.model.evaluate(x), 0.5);
-        const CollisionResult c = collisionProbability(sphere.model, sphere.ss.samples, sphere.s, triangleAt(x, 1e-5),
-                                                       {{0, 1, 2}}, options(1.0));
+        const CollisionResult c =
+            collisionProbability(sphere.model, sphere.ss.samples, sphere.s, triangleAt(x, 1e-5), {{0, 1, 2}}, options(1.0));
         INFO("z " << z << ": P(inside) " << inside << ", collision " << c.probability << " +- " << c.standardError);
         CHECK(c.points == 3);
         CHECK(std::abs(c.probability - inside) <= 4 * std::sqrt(std::max(inside * (1 - inside), 1e-3) / 2000));
@@ -63,8 +63,8 @@ TEST_CASE("collision: a triangle deep inside always collides, one far outside ne
     // most exposed point alone
     const CollisionResult wide =
         collisionProbability(sphere.model, sphere.ss.samples, sphere.s, triangleAt(Vec3d(0, 0, 1.05), 0.6), one, options(step));
-    INFO("collision " << wide.probability << " +- " << wide.standardError << ", largest one-point " << wide.largestInside
-                      << ", " << wide.points << " points");
+    INFO("collision " << wide.probability << " +- " << wide.standardError << ", largest one-point " << wide.largestInside << ", "
+                      << wide.points << " points");
     CHECK(wide.probability > wide.largestInside + 3 * wide.standardError);
     CHECK(wide.probability < 1.0);
     // The chunks of draws it takes are the draws of one SurfaceDraws: the same estimate from all of them at once
@@ -96,7 +96,8 @@ TEST_CASE("collision: the sample points cover every triangle within the step", "
         const auto& t = f[std::size_t(k % 2)];
         double a = U(rng), b = U(rng);
         if (a + b > 1) a = 1 - a, b = 1 - b;
-        const Vec3d x = v[std::size_t(t[0])] + a * (v[std::size_t(t[1])] - v[std::size_t(t[0])]) + b * (v[std::size_t(t[2])] - v[std::size_t(t[0])]);
+        const Vec3d x =
+            v[std::size_t(t[0])] + a * (v[std::size_t(t[1])] - v[std::size_t(t[0])]) + b * (v[std::size_t(t[2])] - v[std::size_t(t[0])]);
         double nearest = HUGE_VAL;
         for (const Vec3d& p : points) nearest = std::min(nearest, (p - x).norm());
         worst = std::max(worst, nearest);

@@ -32,8 +32,7 @@ vtkSmartPointer<vtkPolyData> readVtp(const std::string& path) {
 
 /// The small setting: two σ, coarse voxels, two eigenpairs, small pictures (a few seconds on 2 cores).
 constexpr int kPictureWidth = 160;  ///< --picture-width
-const std::string kSmall =
-    " --sigma 1 --sigma 3 --voxel-size 0.08 -k 2 --picture-width " + std::to_string(kPictureWidth) + " --quiet";
+const std::string kSmall = " --sigma 1 --sigma 3 --voxel-size 0.08 -k 2 --picture-width " + std::to_string(kPictureWidth) + " --quiet";
 
 /// Height of the caption strip renderPng puts under captioned panels, measured on a one-panel picture.
 int captionStripHeight() {
@@ -92,10 +91,11 @@ TEST_CASE("demo: writes every promised file, and each opens in an independent re
             CHECK_THAT(print.out, Catch::Contains(std::string("Name: ") + grid));
         // === pyopenvdb: grid classes and vector types Houdini and Blender read
         const std::string script = temp("read_demo.py");
-        std::ofstream(script) << "import sys, pyopenvdb as vdb\n"
-                                 "grids, meta = vdb.readAll(sys.argv[1])\n"
-                                 "for g in grids: print(g.name, g.gridClass.replace(' ', '_'), g.vectorType.replace(' ', '_'), g.activeVoxelCount())\n"
-                                 "print('meta', meta['sigma_rel'], meta['iso'], meta['gpisvdb_version'])\n";
+        std::ofstream(script)
+            << "import sys, pyopenvdb as vdb\n"
+               "grids, meta = vdb.readAll(sys.argv[1])\n"
+               "for g in grids: print(g.name, g.gridClass.replace(' ', '_'), g.vectorType.replace(' ', '_'), g.activeVoxelCount())\n"
+               "print('meta', meta['sigma_rel'], meta['iso'], meta['gpisvdb_version'])\n";
         const Run py = runShell("/usr/bin/python3 " + script + " " + vdb);
         INFO(py.err);
         CHECK(py.code == 0);
@@ -104,7 +104,8 @@ TEST_CASE("demo: writes every promised file, and each opens in an independent re
         CHECK_THAT(py.out, Catch::Contains("meta " + std::string(s == "sigma-1" ? "1.0" : "3.0") + " 0.5"));
         // === vdb_render draws mu as a fog volume
         const std::string ppm = dir + "/" + s + "/mu.ppm";
-        const Run render = runShell("vdb_render " + vdb + " " + ppm + " -name mu -res 96x64 -translate 0,-4,3 -lookat 0,0,0 -up 0,0,1 -cpus 1");
+        const Run render =
+            runShell("vdb_render " + vdb + " " + ppm + " -name mu -res 96x64 -translate 0,-4,3 -lookat 0,0,0 -up 0,0,1 -cpus 1");
         CHECK(render.code == 0);
         const std::string image = slurp(ppm);
         REQUIRE(image.size() > 96 * 64 * 3);
@@ -154,8 +155,8 @@ TEST_CASE("demo: an interrupted run leaves no output directory", "[demo][cli]") 
 TEST_CASE("demo: bad parameters are refused before any work", "[demo][cli]") {
     const std::string dir = temp("demo_bad");
     fs::remove_all(dir);
-    for (const char* args : {" --sigma 0", " --sigma -1", " --voxel-size 0.001", " --voxel-size 5", " -k 0", " --picture-width 10",
-                             " --threads -1"}) {
+    for (const char* args :
+         {" --sigma 0", " --sigma -1", " --voxel-size 0.001", " --voxel-size 5", " -k 0", " --picture-width 10", " --threads -1"}) {
         const Run r = run("demo -o " + dir + args);
         INFO(args << ": " << r.err);
         CHECK(r.code == 1);

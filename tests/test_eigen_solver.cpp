@@ -1,6 +1,6 @@
 // The generalized eigen solver L u = λ M u (solve/eigen_solver.h).
-#include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
+#include <Eigen/Eigenvalues>
 #include <random>
 #include <tbb/global_control.h>
 
@@ -173,8 +173,8 @@ TEST_CASE("eigen solver: LOBPCG with the multigrid equals CHOLMOD's Lanczos with
         lanczos.method = EigenMethod::ShiftInvert;
         const EigenResult a = lowestEigenpairs(*L, *m, lanczos);
         const EigenResult b = lowestEigenpairs(*L, *m, lobpcgOptions(k));
-        INFO(L->rows() << " unknowns, k = " << k << ": LOBPCG " << b.iterations << " iterations, block " << b.subspace
-                       << ", multigrid " << b.multigridLevels << " levels");
+        INFO(L->rows() << " unknowns, k = " << k << ": LOBPCG " << b.iterations << " iterations, block " << b.subspace << ", multigrid "
+                       << b.multigridLevels << " levels");
         REQUIRE(a.method == EigenMethod::ShiftInvert);
         REQUIRE(b.method == EigenMethod::Lobpcg);
         CHECK(b.iterations > 0);
@@ -211,7 +211,8 @@ TEST_CASE("eigen solver: the automatic method takes LOBPCG where CHOLMOD's facto
     CHECK_THROWS_AS(lowestEigenpairs(L, m, o), MemoryLimitError);
 }
 
-TEST_CASE("eigen solver: LOBPCG is identical for 1 and 2 threads, its sums swept by chunks of rows, and refuses bad options", "[eigen][multigrid]") {
+TEST_CASE("eigen solver: LOBPCG is identical for 1 and 2 threads, its sums swept by chunks of rows, and refuses bad options",
+          "[eigen][multigrid]") {
     const Band& band = test::sphereBand();
     const SparseMatrixD L = assembleLaplacianDouble(band);
     const Eigen::VectorXd m = massVector(band);

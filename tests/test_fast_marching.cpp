@@ -2,10 +2,10 @@
 #include <cmath>
 #include <tbb/global_control.h>
 
-#include "band_fixtures.h"
-#include "gpisvdb/core/errors.h"
 #include <openvdb/tools/FastSweeping.h>
 #include <openvdb/tools/LevelSetSphere.h>
+#include "band_fixtures.h"
+#include "gpisvdb/core/errors.h"
 
 #include "gpisvdb/solve/fast_marching.h"
 #include "gpisvdb/tasks/green.h"
@@ -66,8 +66,8 @@ TEST_CASE("fast marching: on a constant tensor U converges at first order to the
         const auto [worst10, mean10] = boxError(T, 10);
         const auto [worst20, mean20] = boxError(T, 20);
         const auto [worst40, mean40] = boxError(T, 40);
-        INFO(name << ": mean relative errors " << mean10 << ", " << mean20 << ", " << mean40 << "; worst " << worst10
-                  << ", " << worst20 << ", " << worst40);
+        INFO(name << ": mean relative errors " << mean10 << ", " << mean20 << ", " << mean40 << "; worst " << worst10 << ", " << worst20
+                  << ", " << worst40);
         // First order with the log factor of a point source: error ~ h log(1/h), so each halving of h divides it
         // by 2 / (1 + ln 2 / ln(1/h)) ≈ 1.6 here (measured mean ratios 0.65–0.75).
         CHECK(mean20 < 0.75 * mean10);
@@ -146,8 +146,7 @@ TEST_CASE("fast marching: isotropic U matches OpenVDB's fast sweeping on a non-c
     const FastMarchingResult fm = fastMarching(band, sources);
     REQUIRE(fm.unreached == 0);
 
-    auto ball = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(float(radius), openvdb::Vec3f(float(s.x()), 0, 0),
-                                                                          float(h), 3.0f);
+    auto ball = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(float(radius), openvdb::Vec3f(float(s.x()), 0, 0), float(h), 3.0f);
     openvdb::MaskGrid mask;
     mask.setTransform(ball->transform().copy());
     for (const openvdb::Coord& c : band.coord) mask.tree().setValueOn(c);
@@ -165,8 +164,8 @@ TEST_CASE("fast marching: isotropic U matches OpenVDB's fast sweeping on a non-c
     // The far side: around the hole (tangent segments and an arc of the inner sphere), 1.85 − 0.12 = 1.73 from the
     // ball, against 1.38 in a straight line through the hole: both solvers must go around it.
     const std::size_t far = nearestBandVoxel(band, -s);
-    INFO("mean relative difference " << sum / double(count) << ", worst " << worst << ", far side ours "
-                                     << fm.distance[far] << " theirs " << acc.getValue(band.coord[far]));
+    INFO("mean relative difference " << sum / double(count) << ", worst " << worst << ", far side ours " << fm.distance[far] << " theirs "
+                                     << acc.getValue(band.coord[far]));
     // First-order solvers with different stencils (ours: axis upwind; theirs: Godunov sweeping) from a voxelised
     // ball: measured 3.1% apart on average, 20% at worst a few voxels from the ball, 1.3% on the far side.
     CHECK(sum / double(count) < 0.05);
@@ -176,7 +175,8 @@ TEST_CASE("fast marching: isotropic U matches OpenVDB's fast sweeping on a non-c
     CHECK(acc.getValue(band.coord[far]) > 1.65);
 }
 
-TEST_CASE("fast marching: the compact march gives U bit for bit equal to the reference march, in under 100 B per voxel", "[fast_marching]") {
+TEST_CASE("fast marching: the compact march gives U bit for bit equal to the reference march, in under 100 B per voxel",
+          "[fast_marching]") {
     // Issue 18 item 6: run() keeps only a pool of touched, unaccepted voxels where runReference() (the march
     // before it) kept a 72 B record per band voxel. The two must agree exactly: same local solves, same front order.
     const Mat3d R = Eigen::AngleAxisd(0.6, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
@@ -199,8 +199,8 @@ TEST_CASE("fast marching: the compact march gives U bit for bit equal to the ref
         // Tables + U + slot map + target flags + the pool at its peak: under 100 B per voxel even on these small
         // bands, whose front is a large share of the band.
         const double n = double(c.band.size());
-        const double bytes = fm.bytesPerVoxel() + FastMarching::kMarchBytesPerVoxel +
-                             FastMarching::kTouchedBytes * double(compact.peakTouched) / n;
+        const double bytes =
+            fm.bytesPerVoxel() + FastMarching::kMarchBytesPerVoxel + FastMarching::kTouchedBytes * double(compact.peakTouched) / n;
         INFO("bytes per voxel " << bytes << ", peak touched " << compact.peakTouched << " of " << n);
         CHECK(bytes < 100);
     }

@@ -18,9 +18,7 @@ const Band& thinSphereBand() {
     return band;
 }
 
-Vec3d world(const Band& band, std::size_t i) {
-    return band.voxelSize * Vec3d(band.coord[i].x(), band.coord[i].y(), band.coord[i].z());
-}
+Vec3d world(const Band& band, std::size_t i) { return band.voxelSize * Vec3d(band.coord[i].x(), band.coord[i].y(), band.coord[i].z()); }
 
 double angle(const Vec3d& a, const Vec3d& b) { return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)); }
 

@@ -1,7 +1,7 @@
-#include <catch2/catch.hpp>
-#include <Eigen/Cholesky>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
+#include <Eigen/Cholesky>
 #include <tbb/global_control.h>
 
 #include "band_fixtures.h"
@@ -135,8 +135,9 @@ TEST_CASE("hodge: the free part of a random field carries no net mu-flux and is 
     const double gg = sDot(band, r.gradient, r.gradient), ff = sDot(band, r.free, r.free);
     const double cosS = sDot(band, r.gradient, r.free) / std::sqrt(gg * ff);
     const double euclid = dot(r.gradient, r.free) / std::sqrt(dot(r.gradient, r.gradient) * dot(r.free, r.free));
-    INFO((o.boundary == Boundary::Neumann ? "Neumann" : "Dirichlet") << ": |M D_phi V_free| / |M D_phi V| " << divFree
-         << ", S-cosine " << cosS << ", Euclidean cosine " << euclid << ", " << r.solver.iterations << " iterations");
+    INFO((o.boundary == Boundary::Neumann ? "Neumann" : "Dirichlet")
+         << ": |M D_phi V_free| / |M D_phi V| " << divFree << ", S-cosine " << cosS << ", Euclidean cosine " << euclid << ", "
+         << r.solver.iterations << " iterations");
     CHECK(divFree <= 10 * o.solver.tolerance);  // measured 7e-7
     // A split off by ε V_grad has an S-cosine ≈ ε |V_grad|_S / |V_free|_S ≈ 0.6 ε: 1e-6 catches any error of the
     // gradient part beyond the solver's tolerance (measured 1e-9).
@@ -189,8 +190,9 @@ TEST_CASE("hodge: the GPIS gradient of a known potential is recovered with its p
     }
     const double range = hi - lo;
     const double freeRel = std::sqrt(sDot(band, r.free, r.free) / sDot(band, V, V));
-    INFO((o.boundary == Boundary::Neumann ? "Neumann" : "Dirichlet") << ": max |psi - phi - c| / range(phi) "
-         << err / range << ", |V_free|_S / |V|_S " << freeRel << ", " << r.solver.iterations << " iterations");
+    INFO((o.boundary == Boundary::Neumann ? "Neumann" : "Dirichlet")
+         << ": max |psi - phi - c| / range(phi) " << err / range << ", |V_free|_S / |V|_S " << freeRel << ", " << r.solver.iterations
+         << " iterations");
     // At the solver's tolerance 1e-5, ten times over (measured 1.4e-6 and 2.8e-6).
     CHECK(err < 1e-4 * range);
     CHECK(freeRel < 1e-4);
@@ -278,9 +280,9 @@ TEST_CASE("hodge: tolerances below float's reach are met by refinement in double
     }
     const double divV = norm(muFluxBalance(band, V, o.boundary));
     const double divFree = norm(muFluxBalance(band, one.free, o.boundary)) / divV;
-    INFO((o.boundary == Boundary::Neumann ? "Neumann" : "Dirichlet") << ": " << one.solver.refinements << " refinements, "
-         << one.solver.iterations << " iterations, residual " << one.solver.relativeResidual << " (float psi "
-         << one.solver.floatResidual << "), |M D_phi V_free| / |M D_phi V| " << divFree);
+    INFO((o.boundary == Boundary::Neumann ? "Neumann" : "Dirichlet")
+         << ": " << one.solver.refinements << " refinements, " << one.solver.iterations << " iterations, residual "
+         << one.solver.relativeResidual << " (float psi " << one.solver.floatResidual << "), |M D_phi V_free| / |M D_phi V| " << divFree);
     REQUIRE(one.solver.converged);
     CHECK(one.solver.relativeResidual <= 1e-10);
     CHECK(one.solver.refinements >= 2);

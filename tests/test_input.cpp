@@ -10,8 +10,8 @@
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
-#include <vtkSTLWriter.h>
 #include <vtkSmartPointer.h>
+#include <vtkSTLWriter.h>
 #include <vtkXMLPolyDataWriter.h>
 
 #include "gpisvdb/core/errors.h"
@@ -66,16 +66,17 @@ TEST_CASE("input: polygons are fan-triangulated and counted", "[input]") {
 
 TEST_CASE("input: PLY ascii and binary, meshes and clouds with sigma, give the same data", "[input]") {
     const std::string ascii = tempFile("cloud.ply",
-        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-        "property float nx\nproperty float ny\nproperty float nz\nproperty double sigma\nend_header\n"
-        "0 0 0 0 0 1 0.1\n1 0 0 0 0 1 0.2\n0 1 0 0 0 2 0.3\n");
+                                       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                       "property float nx\nproperty float ny\nproperty float nz\nproperty double sigma\nend_header\n"
+                                       "0 0 0 0 0 1 0.1\n1 0 0 0 0 1 0.2\n0 1 0 0 0 2 0.3\n");
     const InputData a = readInput(ascii);
     REQUIRE(a.cloud);
     CHECK(a.cloud->sigmas == std::vector<double>{0.1, 0.2, 0.3});
     CHECK(a.cloud->normals[2] == Vec3d(0, 0, 2));
 
-    std::string bin = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
-                      "property double z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    std::string bin =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+        "property double z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
     const double v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
     bin.append(reinterpret_cast<const char*>(v), sizeof v);
     const unsigned char n = 3;
@@ -144,8 +145,9 @@ TEST_CASE("input: bad files give one clear InputError", "[input]") {
     CHECK_THAT(errorOf(tempFile("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n")), Catch::Contains("out of range"));
     CHECK_THAT(errorOf(tempFile("range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n")), Catch::Contains("out of range"));
     CHECK_THAT(errorOf(tempFile("nonormals.xyz", "0 0 0\n1 0 0\n")), Catch::Contains("no normals"));
-    CHECK_THAT(errorOf(tempFile("nonormals.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
-                                                 "property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n")),
+    CHECK_THAT(errorOf(tempFile("nonormals.ply",
+                                "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                                "property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n")),
                Catch::Contains("no normals"));
     CHECK_THAT(errorOf(tempFile("nofaces.obj", "v 0 0 0\n")), Catch::Contains("no faces"));
     CHECK_THAT(errorOf(tempFile("short.off", "OFF\n3 1 0\n0 0 0\n")), Catch::Contains("ends early"));
@@ -153,7 +155,7 @@ TEST_CASE("input: bad files give one clear InputError", "[input]") {
 
 TEST_CASE("input: zero-area triangles are skipped and counted", "[input]") {
     TriangleSoup s = icosphere(1);
-    s.triangles.push_back({0, 0, 1});                       // repeated vertex
+    s.triangles.push_back({0, 0, 1});  // repeated vertex
     s.vertices.push_back({2, 0, 0});
     s.vertices.push_back({3, 0, 0});
     s.vertices.push_back({4, 0, 0});
@@ -225,8 +227,7 @@ TEST_CASE("input: cloud samples carry area-weighted normals and per-point sigma"
     }
 }
 
-TEST_CASE("input: a cloud's length scale is sqrt(area / points), on scan lines as on random and even samplings",
-          "[input]") {
+TEST_CASE("input: a cloud's length scale is sqrt(area / points), on scan lines as on random and even samplings", "[input]") {
     // A scanner's lines put every near neighbour on the point's own line, so the mean nearest-neighbour distance
     // (ℓ before) is the spacing along the lines, 10× below the surface's spacing on the 10:1 scan.
     const double torusArea = 4 * M_PI * M_PI * 3.0;
@@ -266,8 +267,7 @@ TEST_CASE("input: a cloud's length scale is sqrt(area / points), on scan lines a
     CHECK(cloudSamples(random).samples.lengthScale == Approx(std::sqrt(4 * M_PI / 20000)).epsilon(0.1));
 }
 
-TEST_CASE("input: the cylinder grows only across scan lines: a random cloud's areas are those of the fixed cylinder",
-          "[input]") {
+TEST_CASE("input: the cylinder grows only across scan lines: a random cloud's areas are those of the fixed cylinder", "[input]") {
     const InputData d = readInput(test::dataPath("sphere_20k_normal.xyz"));
     CloudNoiseOptions fixed;
     fixed.areaDoublings = 0;
@@ -288,8 +288,7 @@ TEST_CASE("input: a cloud's areas and length scale are identical for 1 and 2 thr
     CHECK(one.normal == two.normal);
 }
 
-TEST_CASE("input: the cylinder's growth is bounded: points on one line end, and bad growth options are refused",
-          "[input]") {
+TEST_CASE("input: the cylinder's growth is bounded: points on one line end, and bad growth options are refused", "[input]") {
     PointCloud line;
     for (int i = 0; i < 200; ++i) {
         line.positions.emplace_back(0.01 * i, 0, 0);
@@ -309,8 +308,7 @@ TEST_CASE("input: the cylinder's growth is bounded: points on one line end, and 
     CHECK_THROWS_AS(cloudSamples(line, o), ParameterError);
 }
 
-TEST_CASE("input: a cylinder never covered keeps its first area: a patch's corners and a strip's ends as the fixed cylinder's",
-          "[input]") {
+TEST_CASE("input: a cylinder never covered keeps its first area: a patch's corners and a strip's ends as the fixed cylinder's", "[input]") {
     // A quarter disc (a corner) and a strip three points wide stay anisotropic however large the cylinder: growing
     // there would only count more of the same shape (an area up to 10× or 190× too large, measured before the rule).
     CloudNoiseOptions fixed;

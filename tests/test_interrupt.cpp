@@ -95,7 +95,7 @@ TEST_CASE("interrupt: a flag polled inside a parallel model evaluation stops eve
         CHECK_THROWS_AS(dense ? model.evaluateDense(xs, c.progress()) : model.evaluate(xs, c.progress()), Cancelled);
         const long after = c.polls;
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
-        CHECK(c.polls == after);  // no worker still running (and polling) once evaluate threw
+        CHECK(c.polls == after);                                                // no worker still running (and polling) once evaluate threw
         CHECK(after < 40 + 4 * long(std::thread::hardware_concurrency()) + 8);  // each worker stops at its next poll
         // Polling does not change the results.
         const std::vector<Vec3d> few(xs.begin(), xs.begin() + 1000);
@@ -224,8 +224,8 @@ TEST_CASE("interrupt: SIGINT and SIGTERM stop every long command within a second
         {"regress", "regress " + bunny + " --data " + data + at("0.2")},
         {"demo", "demo -o " + dir + " --quiet"},
     };
-    const std::vector<std::pair<int, double>> moments = {{SIGINT, 0.3}, {SIGTERM, 0.6}, {SIGINT, 1.0},
-                                                         {SIGTERM, 1.5}, {SIGINT, 2.0}, {SIGTERM, 2.5}};
+    const std::vector<std::pair<int, double>> moments = {{SIGINT, 0.3},  {SIGTERM, 0.6}, {SIGINT, 1.0},
+                                                         {SIGTERM, 1.5}, {SIGINT, 2.0},  {SIGTERM, 2.5}};
     double worst = 0;
     for (const auto& [name, args] : commands) {
         int inFlight = 0;  // signals that found the command still running

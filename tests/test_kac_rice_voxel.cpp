@@ -1,6 +1,6 @@
-#include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 #include <random>
 #include <vector>
 

@@ -4,8 +4,8 @@
 #include <tuple>
 #include <vector>
 
-#include "gpisvdb/input/procedural.h"
 #include <Eigen/Eigenvalues>
+#include "gpisvdb/input/procedural.h"
 
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/kacrice/kac_rice.h"
@@ -120,8 +120,9 @@ TEST_CASE("kacrice: mu and T match the chi and non-central chi closed forms for 
                 const Vec3d m = g * dir + c * (u - gamma) / c00;
                 const auto [mu, T] = isotropicClosedForm(m, s, p);
                 const SurfaceDensity d = kacRice(z, u, rule);
-                INFO("c = " << c.transpose() << ", s = " << s << ", |g| = " << g << ", mu " << d.mu << " vs " << mu
-                            << ", T\n" << d.T << "\nvs\n" << T);
+                INFO("c = " << c.transpose() << ", s = " << s << ", |g| = " << g << ", mu " << d.mu << " vs " << mu << ", T\n"
+                            << d.T << "\nvs\n"
+                            << T);
                 CHECK(d.density == Approx(p).epsilon(1e-12));
                 CHECK((d.meanGradient - m).norm() <= 1e-12 * (1 + m.norm()));
                 CHECK(std::abs(d.mu - mu) <= 1e-3 * mu);
@@ -158,7 +159,9 @@ TEST_CASE("kacrice: mu and T match a plain Monte Carlo for correlated, anisotrop
         const SurfaceDensity d = kacRice(z, u, rule);
         const MonteCarlo mc = monteCarlo(mean, A, u, 1000000, seed++);
         INFO("case " << seed - 11 << ": mu " << d.mu << " vs MC " << mc.mu << " +- " << mc.muError << "\nT\n"
-                     << d.T << "\nvs MC\n" << mc.T << "\n+-\n" << mc.TError);
+                     << d.T << "\nvs MC\n"
+                     << mc.T << "\n+-\n"
+                     << mc.TError);
         CHECK(std::abs(d.mu - mc.mu) <= 4 * mc.muError);
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) CHECK(std::abs(d.T(i, j) - mc.T(i, j)) <= 4 * mc.TError(i, j));
@@ -244,4 +247,3 @@ TEST_CASE("kacrice: the SIMD sums equal the plain loop at lengths scaled by 1e-6
         }
     }
 }
-

@@ -1,8 +1,8 @@
 // Matérn kernels on the GPIS and Gaussian-process regression with them (tasks/matern.h).
-#include <catch2/catch.hpp>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 #include <limits>
 #include <tbb/global_control.h>
 
@@ -26,9 +26,7 @@ const EigenResult& sphereSpectrum() {
     return r;
 }
 
-Vec3d centre(const Band& band, std::size_t i) {
-    return band.voxelSize * Vec3d(band.coord[i].x(), band.coord[i].y(), band.coord[i].z());
-}
+Vec3d centre(const Band& band, std::size_t i) { return band.voxelSize * Vec3d(band.coord[i].x(), band.coord[i].y(), band.coord[i].z()); }
 
 /// The band voxel of largest μ on the ray from the origin along `direction` (within half a voxel of it): where
 /// the ray meets the mean surface.

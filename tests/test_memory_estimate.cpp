@@ -2,8 +2,8 @@
 // /proc, in this process for a stage's own bytes and in a child gpisvdb for a command's stage as it reports it.
 #include <malloc.h>
 
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -15,8 +15,8 @@
 #include "gpisvdb/band/build_band.h"
 #include "gpisvdb/core/memory_estimate.h"
 #include "gpisvdb/ops/laplacian.h"
-#include "gpisvdb/solve/pcg.h"
 #include "gpisvdb/solve/boomer_amg.h"
+#include "gpisvdb/solve/pcg.h"
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/green.h"
 #include "gpisvdb/tasks/hodge.h"
@@ -93,7 +93,10 @@ TEST_CASE("memory: a march's estimate is within 15 % of the resident set it adds
     }
 }
 
-TEST_CASE("memory: the double Laplacian's assembly, counted from the stencils before it is made, is within 15 % of the resident set it adds, on two block sizes", "[memory]") {
+TEST_CASE(
+    "memory: the double Laplacian's assembly, counted from the stencils before it is made, is within 15 % of the resident set it adds, on "
+    "two block sizes",
+    "[memory]") {
     // The spectrum refuses L before assembling it (docs/memory.md): its entries counted exactly, the assembly's
     // peak (neighbour table and contributions beside L) from them
     mallopt(M_MMAP_THRESHOLD, 1 << 20);
@@ -114,7 +117,8 @@ TEST_CASE("memory: the double Laplacian's assembly, counted from the stencils be
     }
 }
 
-TEST_CASE("memory: a Jacobi PCG solve's estimate (operator, work vectors, refinement) is within 15 % of the resident set it adds", "[memory]") {
+TEST_CASE("memory: a Jacobi PCG solve's estimate (operator, work vectors, refinement) is within 15 % of the resident set it adds",
+          "[memory]") {
     mallopt(M_MMAP_THRESHOLD, 1 << 20);
     const Band band = block(70);
     const std::size_t n = band.size();
@@ -137,13 +141,14 @@ TEST_CASE("memory: a Jacobi PCG solve's estimate (operator, work vectors, refine
             CHECK((r.refinements > 0) == (tolerance < kFloatPcgReach));
         }
         const double measured = peakResidentBytes() - before;
-        INFO("tolerance " << tolerance << ": estimated " << estimate / double(n) << " B per voxel, measured "
-                          << measured / double(n));
+        INFO("tolerance " << tolerance << ": estimated " << estimate / double(n) << " B per voxel, measured " << measured / double(n));
         checkWithin15Percent(estimate, measured);
     }
 }
 
-TEST_CASE("memory: a multigrid-preconditioned solve's estimate (operator, work vectors, hierarchy) is within 15 % of the resident set it adds", "[memory][multigrid]") {
+TEST_CASE(
+    "memory: a multigrid-preconditioned solve's estimate (operator, work vectors, hierarchy) is within 15 % of the resident set it adds",
+    "[memory][multigrid]") {
     // kMultigridBytesPerVoxel was measured on bunny bands (thin, anisotropic); a block of voxels with the same
     // stencils everywhere is the other extreme of the band's shapes.
     mallopt(M_MMAP_THRESHOLD, 1 << 20);
@@ -166,7 +171,9 @@ TEST_CASE("memory: a multigrid-preconditioned solve's estimate (operator, work v
     checkWithin15Percent(estimate, measured);
 }
 
-TEST_CASE("memory: an aggregation-preconditioned solve's estimate (operator, work vectors, hierarchy) is within 15 % of the resident set it adds", "[memory][aggregation]") {
+TEST_CASE(
+    "memory: an aggregation-preconditioned solve's estimate (operator, work vectors, hierarchy) is within 15 % of the resident set it adds",
+    "[memory][aggregation]") {
     // kAggregationBytesPerVoxel was measured on bunny bands (thin shells, ≈ 7 voxels per aggregate); a block of voxels
     // (8 per aggregate, 26 neighbours each) is the other extreme.
     mallopt(M_MMAP_THRESHOLD, 1 << 20);
@@ -213,7 +220,9 @@ TEST_CASE("memory: a Hodge decomposition's estimate is within 15 % of the reside
     }
 }
 
-TEST_CASE("memory: the geodesic, green, hodge and spectrum commands' estimates of their stages are within 15 % of the peaks measured over them", "[memory][cli]") {
+TEST_CASE(
+    "memory: the geodesic, green, hodge and spectrum commands' estimates of their stages are within 15 % of the peaks measured over them",
+    "[memory][cli]") {
     // In a child gpisvdb, on two sizes: the command's estimated stage (the resident set at its start, which holds
     // the libraries, the input and the band, plus what the stage allocates) against the peak resident set over
     // that stage, both from the child's report. On inputs this small the baseline (≈ 65–70 MB) dominates; the
@@ -225,8 +234,8 @@ TEST_CASE("memory: the geodesic, green, hodge and spectrum commands' estimates o
         {"geodesic", "--source 0.5,6,1"}, {"green", "--source 0.5,6,1"}, {"hodge", "--preset mixed"}, {"spectrum", "-k 5"}};
     for (const auto& [command, args] : commands)
         for (const char* h : {"0.4", "0.25"}) {
-            const Run r = run(command + " " + bunny + " " + args + " --sigma 2 --voxel-size " + std::string(h) +
-                              " --quiet -o " + vdb + " --report " + json);
+            const Run r = run(command + " " + bunny + " " + args + " --sigma 2 --voxel-size " + std::string(h) + " --quiet -o " + vdb +
+                              " --report " + json);
             INFO(command << " at h " << h << ": " << r.err);
             REQUIRE(r.code == 0);
             const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
@@ -238,7 +247,10 @@ TEST_CASE("memory: the geodesic, green, hodge and spectrum commands' estimates o
         }
 }
 
-TEST_CASE("memory: the band command's estimate (its size from the samples, its build and .vdb write from the size) is within 15 % of its peak, on two sizes", "[memory][cli]") {
+TEST_CASE(
+    "memory: the band command's estimate (its size from the samples, its build and .vdb write from the size) is within 15 % of its peak, "
+    "on two sizes",
+    "[memory][cli]") {
     // The whole command's peak resident set against the estimate made before the model is evaluated at a voxel
     // (the resident set then, plus the larger of the build and the write): docs/memory.md#band.
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), vdb = temp("memory_band.vdb"), json = temp("memory_band.json");
@@ -255,23 +267,26 @@ TEST_CASE("memory: the band command's estimate (its size from the samples, its b
     }
 }
 
-
-TEST_CASE("memory: the mesh and evaluate commands' estimates of their stages are within 15 % of the peaks measured over them, on two sizes", "[memory][cli]") {
+TEST_CASE("memory: the mesh and evaluate commands' estimates of their stages are within 15 % of the peaks measured over them, on two sizes",
+          "[memory][cli]") {
     for (const std::string& vdb : bunnyBands())
         for (const char* format : {".ply", ".vtp"})
-            checkStage(childStage("mesh " + vdb + " --grid mu --grid normal --quiet -o " + temp(std::string("memory_mesh") + format), "mesh"));
+            checkStage(
+                childStage("mesh " + vdb + " --grid mu --grid normal --quiet -o " + temp(std::string("memory_mesh") + format), "mesh"));
     // Query points in the bunny's box: the evaluation holds 176 B per point (values, Morton order) beside them
     for (int n : {20000, 100000}) {
         std::ostringstream points;
         for (int i = 0; i < n; ++i) points << (i % 97) * 0.1 - 4.8 << ' ' << (i % 89) * 0.1 << ' ' << (i % 71) * 0.1 - 3.5 << '\n';
         const std::string at = temp("memory_points.xyz", points.str());
-        checkStage(childStage("evaluate " + gpisvdb::test::dataPath("bunny.obj") + " --sigma 2 --at " + at + " --quiet -o " +
-                                  temp("memory_values.csv"),
-                              "evaluate"));
+        checkStage(childStage(
+            "evaluate " + gpisvdb::test::dataPath("bunny.obj") + " --sigma 2 --at " + at + " --quiet -o " + temp("memory_values.csv"),
+            "evaluate"));
     }
 }
 
-TEST_CASE("memory: the distance command's estimate (k-d tree, values, dense grid, level set) is within 15 % of its stage's peak, on two sizes", "[memory][cli]") {
+TEST_CASE(
+    "memory: the distance command's estimate (k-d tree, values, dense grid, level set) is within 15 % of its stage's peak, on two sizes",
+    "[memory][cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj");
     for (const char* H : {"0.2", "0.15"})
         checkStage(childStage("distance " + bunny + " --alpha 20 --level 0.1 --sigma 2 --voxel-size 0.4 --grid-voxel-size " +
@@ -279,14 +294,18 @@ TEST_CASE("memory: the distance command's estimate (k-d tree, values, dense grid
                               "distance"));
 }
 
-TEST_CASE("memory: the render command's estimate (surface, window, OpenGL context) is within 15 % of its stage's peak, on two sizes", "[memory][cli][render]") {
+TEST_CASE("memory: the render command's estimate (surface, window, OpenGL context) is within 15 % of its stage's peak, on two sizes",
+          "[memory][cli][render]") {
     const std::vector<std::string>& bands = bunnyBands();
     const std::pair<std::string, std::string> runs[] = {{bands[0], "640,520"}, {bands[1], "800,600"}};  // not the fit's sizes
     for (const auto& [vdb, size] : runs)
         checkStage(childStage("render " + vdb + " --grid mu --size " + size + " --quiet -o " + temp("memory_render.png"), "render"));
 }
 
-TEST_CASE("memory: mesh, render, evaluate, distance and green with the incomplete Cholesky refuse beyond --max-memory before they allocate, naming the setting that fits, and write nothing", "[memory][cli]") {
+TEST_CASE(
+    "memory: mesh, render, evaluate, distance and green with the incomplete Cholesky refuse beyond --max-memory before they allocate, "
+    "naming the setting that fits, and write nothing",
+    "[memory][cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), vdb = bunnyBands()[0];
     std::ostringstream points;
     for (int i = 0; i < 300000; ++i) points << (i % 97) * 0.1 - 4.8 << " 5 0\n";
@@ -334,7 +353,10 @@ TEST_CASE("memory: mesh, render, evaluate, distance and green with the incomplet
     }
 }
 
-TEST_CASE("memory: green with the incomplete Cholesky and regress estimate their stages (the factor, the posterior's vectors) within 15 % of the peaks measured over them, on two sizes", "[memory][cli]") {
+TEST_CASE(
+    "memory: green with the incomplete Cholesky and regress estimate their stages (the factor, the posterior's vectors) within 15 % of the "
+    "peaks measured over them, on two sizes",
+    "[memory][cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), vdb = temp("memory_ic.vdb");
     std::ostringstream data;  // every 10th vertex of the bunny, on the shape, with its height as the value
     std::ifstream obj(bunny);
@@ -348,10 +370,11 @@ TEST_CASE("memory: green with the incomplete Cholesky and regress estimate their
         }
     const std::string csv = temp("memory_regress.csv", data.str());
     for (const char* h : {"0.4", "0.25"}) {
-        checkStage(childStage("green " + bunny + " --source 0.5,6,1 --preconditioner ic --sigma 2 --voxel-size " + std::string(h) +
-                                  " --quiet -o " + vdb,
-                              "green"));
-        checkStage(childStage("regress " + bunny + " --data " + csv + " -k 20 --sigma 2 --voxel-size " + std::string(h) + " --quiet -o " + vdb,
-                              "regression"));
+        checkStage(childStage(
+            "green " + bunny + " --source 0.5,6,1 --preconditioner ic --sigma 2 --voxel-size " + std::string(h) + " --quiet -o " + vdb,
+            "green"));
+        checkStage(
+            childStage("regress " + bunny + " --data " + csv + " -k 20 --sigma 2 --voxel-size " + std::string(h) + " --quiet -o " + vdb,
+                       "regression"));
     }
 }

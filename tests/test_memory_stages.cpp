@@ -2,8 +2,8 @@
 // before it is made, regress's posterior refused before the eigen solver runs, and the sample, info and demo
 // commands' estimates; each against the peak a child gpisvdb measures over its stage, and each refusal: exit 1,
 // one line, nothing written.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -23,8 +23,7 @@ namespace {
 
 /// `args` refused: exit 1, one line on stderr that names --max-memory and each of `expect`, `output` not written.
 /// (`--quiet` is added where the command has it: all but info.)
-void checkRefused(const std::string& args, const std::string& output, const std::vector<std::string>& expect,
-                  bool directory = false) {
+void checkRefused(const std::string& args, const std::string& output, const std::vector<std::string>& expect, bool directory = false) {
     const Run r = run(args.rfind("info ", 0) == 0 ? args : args + " --quiet");
     INFO(args << "\nstderr: " << r.err);
     CHECK(r.code == 1);
@@ -58,7 +57,9 @@ std::string uvSphere(int n) {
 
 }  // namespace
 
-TEST_CASE("memory: spectrum refuses its assembled Laplacian before assembling it, then the eigen solver's factor beside it, and writes nothing", "[memory][cli]") {
+TEST_CASE(
+    "memory: spectrum refuses its assembled Laplacian before assembling it, then the eigen solver's factor beside it, and writes nothing",
+    "[memory][cli]") {
     const std::string bunny = gpisvdb::test::dataPath("bunny.obj"), vdb = temp("memory_spectrum.vdb");
     for (const char* h : {"0.4", "0.25"}) {
         const std::string args = "spectrum " + bunny + " --sigma 2 --voxel-size " + h + " -o " + vdb;
@@ -116,7 +117,10 @@ TEST_CASE("memory: regress refuses its posterior before the eigen stage, at a li
     checkRefused(args + " --max-memory " + bytes(limit), vdb, expect);
 }
 
-TEST_CASE("memory: the sample command's estimate (the mesh at the input's points, the sampled grids, VTK's copy) is within 15 % of its stage's peak, on two sizes", "[memory][cli]") {
+TEST_CASE(
+    "memory: the sample command's estimate (the mesh at the input's points, the sampled grids, VTK's copy) is within 15 % of its stage's "
+    "peak, on two sizes",
+    "[memory][cli]") {
     const std::string vdb = bunnyBands()[0];  // 7 grids, 13 float components
     for (int n : {200, 400})
         for (const char* format : {".ply", ".vtp"})
@@ -124,7 +128,8 @@ TEST_CASE("memory: the sample command's estimate (the mesh at the input's points
                                   "sample"));
 }
 
-TEST_CASE("memory: sample refuses beyond --max-memory before it allocates, naming the grids that fit, and writes nothing", "[memory][cli]") {
+TEST_CASE("memory: sample refuses beyond --max-memory before it allocates, naming the grids that fit, and writes nothing",
+          "[memory][cli]") {
     const std::string out = temp("memory_sample_refused.vtp");
     const std::string args = "sample " + bunnyBands()[0] + " --at " + uvSphere(400) + " -o " + out;
     const nlohmann::json fits = childStage(args + " --quiet", "sample");
@@ -138,7 +143,10 @@ TEST_CASE("memory: sample refuses beyond --max-memory before it allocates, namin
     checkRefused(args + " --max-memory " + bytes(baseline + 0.5 * mesh), out, {"raise it"});
 }
 
-TEST_CASE("memory: the info command's estimate (the samples, and a cloud's spacing) is within 15 % of its stage's peak, on two sizes, and refused beyond --max-memory", "[memory][cli]") {
+TEST_CASE(
+    "memory: the info command's estimate (the samples, and a cloud's spacing) is within 15 % of its stage's peak, on two sizes, and "
+    "refused beyond --max-memory",
+    "[memory][cli]") {
     // 104 B per sample: 8 MB and 33 MB for the soups, 2.9 MB for the 21 000-point cloud
     for (const std::string& input : {uvSphere(200), uvSphere(400), gpisvdb::test::dataPath("sphere_20k_normal.xyz")})
         checkStage(childStage("info " + input + " --no-forecast", "samples"));
@@ -150,13 +158,14 @@ TEST_CASE("memory: the info command's estimate (the samples, and a cloud's spaci
                  {"the sampling of the input needs about", "raise it"});
 }
 
-TEST_CASE("memory: info's forecast of the band's peak is within 25 % of the band's measured peak, on a budgeted cloud and the bunny", "[memory][cli]") {
+TEST_CASE("memory: info's forecast of the band's peak is within 25 % of the band's measured peak, on a budgeted cloud and the bunny",
+          "[memory][cli]") {
     // A unit-sphere cloud of 3000 points with σ = 0.02 of its own, budgeted to 20 000 voxels; the bunny at σ_rel 1.
     std::ostringstream text;
     for (int i = 0; i < 3000; ++i) {
         const double z = 1 - (2 * i + 1) / 3000.0, r = std::sqrt(1 - z * z), a = 2.399963229728653 * i;  // a Fibonacci sphere
-        text << r * std::cos(a) << ' ' << r * std::sin(a) << ' ' << z << ' ' << r * std::cos(a) << ' ' << r * std::sin(a)
-             << ' ' << z << " 0.02\n";
+        text << r * std::cos(a) << ' ' << r * std::sin(a) << ' ' << z << ' ' << r * std::cos(a) << ' ' << r * std::sin(a) << ' ' << z
+             << " 0.02\n";
     }
     const std::string cloud = temp("memory_forecast_cloud.xyz");
     std::ofstream(cloud) << text.str();
@@ -171,7 +180,10 @@ TEST_CASE("memory: info's forecast of the band's peak is within 25 % of the band
     }
 }
 
-TEST_CASE("memory: the demo's estimates of its stages (Green's function, march, spectrum and sections per sigma, pictures) are within 15 % of the peaks measured over them, on two sizes", "[memory][cli][demo]") {
+TEST_CASE(
+    "memory: the demo's estimates of its stages (Green's function, march, spectrum and sections per sigma, pictures) are within 15 % of "
+    "the peaks measured over them, on two sizes",
+    "[memory][cli][demo]") {
     const std::string dir = temp("memory_demo");
     const std::pair<const char*, const char*> sizes[] = {{"0.08", "160"}, {"0.065", "320"}};
     for (const auto& [h, width] : sizes) {
@@ -190,7 +202,8 @@ TEST_CASE("memory: the demo's estimates of its stages (Green's function, march, 
     }
 }
 
-TEST_CASE("memory: the demo refuses pictures beyond --max-memory, naming the picture width that fits, and leaves no directory", "[memory][cli][demo]") {
+TEST_CASE("memory: the demo refuses pictures beyond --max-memory, naming the picture width that fits, and leaves no directory",
+          "[memory][cli][demo]") {
     const std::string dir = temp("memory_demo_refused");
     const std::string args = "demo -o " + dir + " --sigma 1 --sigma 3 -k 2 --voxel-size 0.08 --picture-width 320";
     std::filesystem::remove_all(dir);

@@ -1,19 +1,19 @@
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <Eigen/Geometry>
-#include <algorithm>
 #include <limits>
 #include <random>
 #include <tuple>
 
+#include <tbb/global_control.h>
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/input/read_input.h"
+#include "gpisvdb/model/accuracy.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
 #include "gpisvdb/model/direct_gpis.h"
 #include "gpisvdb/model/load_model.h"
 #include "helpers.h"
-#include "gpisvdb/model/accuracy.h"
-#include <tbb/global_control.h>
 
 using namespace gpisvdb;
 
@@ -21,8 +21,7 @@ namespace {
 
 /// Ray-parity inside test against the exact mesh (independent of the GPIS), majority over 3 rays.
 bool insideMesh(const TriangleSoup& m, const Vec3d& x) {
-    const Vec3d dirs[3] = {Vec3d(1, 0.123, 0.377).normalized(), Vec3d(-0.31, 1, 0.2).normalized(),
-                           Vec3d(0.17, -0.29, -1).normalized()};
+    const Vec3d dirs[3] = {Vec3d(1, 0.123, 0.377).normalized(), Vec3d(-0.31, 1, 0.2).normalized(), Vec3d(0.17, -0.29, -1).normalized()};
     int votes = 0;
     for (const Vec3d& d : dirs) {
         int hits = 0;
@@ -210,31 +209,31 @@ TEST_CASE("model: a packet of points opens the nodes each point opens alone (bat
         cases.push_back({scale < 1 ? "torus x1e-6" : "torus x1e6", soupSamples(t, {0.5}).samples});
     }
     for (const Case& c : cases)
-      for (const bool inFloat : {false, true}) {
-        BarnesHutOptions o;
-        o.floatNearField = inFloat;
-        const BarnesHutGpis bh(c.samples, 0.4 * c.samples.lengthScale, o);
-        std::vector<Vec3d> xs = nearAndFar(c.samples, 1203, 17);
-        const double h = 0.3 * c.samples.lengthScale;
-        appendBlock(xs, c.samples.position[c.samples.size() / 3], h);
-        const std::vector<ValueGradient> batch = bh.evaluate(xs);
-        std::vector<ValueGradient> single(xs.size());
-        for (std::size_t i = 0; i < xs.size(); ++i) single[i] = bh.evaluate(xs[i]);
-        const ModelError e = compareModels(single, batch);
-        INFO(c.name << (inFloat ? ", near field in float: " : ", near field in double: ") << e.describe());
-        CHECK(e.worst() <= (inFloat ? 1e-5 : 1e-12));
-        // And the covariance pointwise, against the point's own √(c_aa c_bb): far points have tiny covariances, which
-        // the norm above (scaled by the largest over the points) would not see. (Not the mean: outside a closed
-        // surface γ's terms cancel to rounding noise, which no two summation orders share.)
-        double worst = 0;
-        for (std::size_t i = 0; i < xs.size(); ++i)
-            for (int a = 0; a < 4; ++a)
-                for (int b = 0; b < 4; ++b) {
-                    const double scale = std::sqrt(single[i].cov(a, a) * single[i].cov(b, b));
-                    worst = std::max(worst, std::abs(batch[i].cov(a, b) - single[i].cov(a, b)) / scale);
-                }
-        CHECK(worst <= (inFloat ? 2e-5 : 1e-10));
-      }
+        for (const bool inFloat : {false, true}) {
+            BarnesHutOptions o;
+            o.floatNearField = inFloat;
+            const BarnesHutGpis bh(c.samples, 0.4 * c.samples.lengthScale, o);
+            std::vector<Vec3d> xs = nearAndFar(c.samples, 1203, 17);
+            const double h = 0.3 * c.samples.lengthScale;
+            appendBlock(xs, c.samples.position[c.samples.size() / 3], h);
+            const std::vector<ValueGradient> batch = bh.evaluate(xs);
+            std::vector<ValueGradient> single(xs.size());
+            for (std::size_t i = 0; i < xs.size(); ++i) single[i] = bh.evaluate(xs[i]);
+            const ModelError e = compareModels(single, batch);
+            INFO(c.name << (inFloat ? ", near field in float: " : ", near field in double: ") << e.describe());
+            CHECK(e.worst() <= (inFloat ? 1e-5 : 1e-12));
+            // And the covariance pointwise, against the point's own √(c_aa c_bb): far points have tiny covariances, which
+            // the norm above (scaled by the largest over the points) would not see. (Not the mean: outside a closed
+            // surface γ's terms cancel to rounding noise, which no two summation orders share.)
+            double worst = 0;
+            for (std::size_t i = 0; i < xs.size(); ++i)
+                for (int a = 0; a < 4; ++a)
+                    for (int b = 0; b < 4; ++b) {
+                        const double scale = std::sqrt(single[i].cov(a, a) * single[i].cov(b, b));
+                        worst = std::max(worst, std::abs(batch[i].cov(a, b) - single[i].cov(a, b)) / scale);
+                    }
+            CHECK(worst <= (inFloat ? 2e-5 : 1e-10));
+        }
 }
 
 TEST_CASE("model: a packet holds 1 to 8 points and refuses more", "[model]") {
@@ -395,7 +394,7 @@ TEST_CASE("model: cells share the far field within the bound of the direct sum a
         const ModelError againstPoints = compareModels(single, got);
         INFO(c.name << ", against evaluate(x): " << againstPoints.describe());
         CHECK(againstPoints.worst() <= 2e-4);
-        CHECK(againstPoints.worst() > 1e-9);  // the cells are in use: interpolation is not rounding
+        CHECK(againstPoints.worst() > 1e-9);                               // the cells are in use: interpolation is not rounding
         CHECK(compareModels(single, cells.evaluate(xs)).worst() <= 1e-5);  // evaluate(xs) stays the packets
         {
             std::vector<Vec3d> some;
@@ -457,8 +456,8 @@ TEST_CASE("model: the linearised covariance matches Monte-Carlo over perturbed v
     const SoupSamples base = soupSamples(soup, {sigmaRel});
     const double ell = base.samples.lengthScale, s = 0.4 * ell;
     const DirectGpis model(base.samples, s);
-    const std::vector<Vec3d> xs = {Vec3d(0, 0, 1.0 + 0.3 * ell), Vec3d(0.6, 0.0, 0.8 - 0.2 * ell),
-                                   Vec3d(0.577, 0.577, 0.577), Vec3d(0.2, 0.1, 0.3)};
+    const std::vector<Vec3d> xs = {Vec3d(0, 0, 1.0 + 0.3 * ell), Vec3d(0.6, 0.0, 0.8 - 0.2 * ell), Vec3d(0.577, 0.577, 0.577),
+                                   Vec3d(0.2, 0.1, 0.3)};
     const int K = 2500;
     std::mt19937_64 rng(123);
     std::normal_distribution<double> N(0, base.sigma);

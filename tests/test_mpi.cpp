@@ -15,8 +15,8 @@
 
 #include <chrono>
 #include <fstream>
-#include <sstream>
 #include <map>
+#include <sstream>
 
 #include "cli_run.h"
 
@@ -27,8 +27,8 @@ namespace {
 /// gpisvdb-mpi on `ranks` processes (oversubscribing the cores is fine; each rank runs one thread).
 Run runMpi(int ranks, const std::string& args) {
     const std::string root = geteuid() == 0 ? " --allow-run-as-root" : "";
-    return runShell(std::string(GPISVDB_MPIEXEC) + root + " --oversubscribe -n " + std::to_string(ranks) + " " +
-                    GPISVDB_MPI_EXE + " " + args + " --threads 1");
+    return runShell(std::string(GPISVDB_MPIEXEC) + root + " --oversubscribe -n " + std::to_string(ranks) + " " + GPISVDB_MPI_EXE + " " +
+                    args + " --threads 1");
 }
 
 /// Every active voxel of every float and vec3 grid: name → (coordinate → components).
@@ -95,7 +95,8 @@ TEST_CASE("mpi: the band on 1, 2 and 3 ranks equals gpisvdb band to the bit, eve
 }
 
 TEST_CASE("mpi: the search partition from the samples' areas balances the band within 10% on the bunny and a sphere", "[mpi]") {
-    for (const std::string& input : {kBunny, gpisvdb::test::dataPath("sphere_20k_normal.xyz") + " --sigma 1 --resolution-scale 2 --quiet"}) {
+    for (const std::string& input :
+         {kBunny, gpisvdb::test::dataPath("sphere_20k_normal.xyz") + " --sigma 1 --resolution-scale 2 --quiet"}) {
         const std::string out = temp("mpi_balance.vdb"), report = temp("mpi_balance.json");
         const Run r = runMpi(2, "band " + input + " -o " + out + " --report " + report);
         INFO(input << "\n" << r.err);
@@ -118,7 +119,8 @@ TEST_CASE("mpi: the PETSc Green's function equals gpisvdb green within the toler
     REQUIRE(scale > 0);
     for (const std::string preconditioner : {"multigrid", "Jacobi"}) {
         const std::string out = temp("mpi_green.vdb"), report = temp("mpi_green.json");
-        const Run r = runMpi(2, "green " + args + " --preconditioner " + (preconditioner == "Jacobi" ? "jacobi" : preconditioner) + " -o " + out + " --report " + report);
+        const Run r = runMpi(2, "green " + args + " --preconditioner " + (preconditioner == "Jacobi" ? "jacobi" : preconditioner) + " -o " +
+                                    out + " --report " + report);
         INFO(preconditioner << "\n" << r.err);
         REQUIRE(r.code == 0);
         const auto got = readGrids(out).at("green");
@@ -165,7 +167,8 @@ TEST_CASE("mpi: SLEPc's eigenpairs (MUMPS shift-invert and LOBPCG) equal gpisvdb
     }
 }
 
-TEST_CASE("mpi: geodesic (marched on rank 0) equals gpisvdb geodesic to the bit, paths included, and regress within the eigen tolerance", "[mpi]") {
+TEST_CASE("mpi: geodesic (marched on rank 0) equals gpisvdb geodesic to the bit, paths included, and regress within the eigen tolerance",
+          "[mpi]") {
     const std::string geo = kBunny + " --source 0.5,6,1 --target -2,9,0";
     const std::string oneVdb = temp("mpi_geo_one.vdb"), onePaths = temp("mpi_geo_one.json");
     REQUIRE(run("geodesic " + geo + " -o " + oneVdb + " --paths " + onePaths).code == 0);
@@ -234,9 +237,21 @@ TEST_CASE("mpi: an error on one rank or all ends every rank with one message, ex
 
 TEST_CASE("mpi: Ctrl-C (SIGINT to mpirun) stops every rank within seconds and leaves no output", "[mpi]") {
     const std::string out = temp("mpi_interrupted.vdb"), errPath = temp("mpi_interrupted.err");
-    std::vector<std::string> words = {GPISVDB_MPIEXEC, "--oversubscribe", "-n", "2", GPISVDB_MPI_EXE, "green",
-                                      gpisvdb::test::dataPath("bunny.obj"), "--sigma", "0.25", "--source", "0.5,6,1",
-                                      "--threads", "1", "-o", out};
+    std::vector<std::string> words = {GPISVDB_MPIEXEC,
+                                      "--oversubscribe",
+                                      "-n",
+                                      "2",
+                                      GPISVDB_MPI_EXE,
+                                      "green",
+                                      gpisvdb::test::dataPath("bunny.obj"),
+                                      "--sigma",
+                                      "0.25",
+                                      "--source",
+                                      "0.5,6,1",
+                                      "--threads",
+                                      "1",
+                                      "-o",
+                                      out};
     if (geteuid() == 0) words.insert(words.begin() + 1, "--allow-run-as-root");
     // One progress line per percent on the piped stderr: the signal waits for the ranks' first one
     const pid_t pid = spawn(words, errPath, {"GPISVDB_PROGRESS=lines"});

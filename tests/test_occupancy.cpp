@@ -16,8 +16,7 @@ namespace {
 /// Volume of a closed, outward-oriented triangle mesh (divergence theorem).
 double enclosedVolume(const TriangleSoup& soup) {
     double v = 0;
-    for (const auto& t : soup.triangles)
-        v += soup.vertices[t[0]].dot(soup.vertices[t[1]].cross(soup.vertices[t[2]])) / 6.0;
+    for (const auto& t : soup.triangles) v += soup.vertices[t[0]].dot(soup.vertices[t[1]].cross(soup.vertices[t[2]])) / 6.0;
     return v;
 }
 
@@ -27,11 +26,11 @@ TEST_CASE("occupancy: the inside probability is the normal CDF of the standardis
     CHECK(insideProbability(0.5, 0.1, 0.5) == Approx(0.5).margin(1e-15));
     CHECK(insideProbability(0.6, 0.1, 0.5) == Approx(0.8413447460685429).epsilon(1e-12));  // Φ(1)
     CHECK(insideProbability(0.3, 0.1, 0.5) == Approx(0.0227501319481792).epsilon(1e-12));  // Φ(−2)
-    for (double z : {-3.0, -0.7, 0.0, 1.3})  // symmetric: P(z) + P(−z) = 1
+    for (double z : {-3.0, -0.7, 0.0, 1.3})                                                // symmetric: P(z) + P(−z) = 1
         CHECK(insideProbability(z, 1.0, 0.0) + insideProbability(-z, 1.0, 0.0) == Approx(1.0).epsilon(1e-14));
     CHECK(insideProbability(0.6, 0.0, 0.5) == 1.0);  // no uncertainty: a step
     CHECK(insideProbability(0.4, 0.0, 0.5) == 0.0);
-    CHECK(insideProbability(1e6, 1e-6, 0.5) == 1.0);  // extreme scales stay finite
+    CHECK(insideProbability(1e6, 1e-6, 0.5) == 1.0);                                             // extreme scales stay finite
     CHECK(insideProbability(0.5 - 1e6, 1e6, 0.5) == Approx(0.1586552539314571).epsilon(1e-12));  // Φ(−1)
 }
 

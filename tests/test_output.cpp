@@ -63,13 +63,14 @@ TEST_CASE("output: pyopenvdb reads names, classes, creators, voxel size, value r
     float lo = band.mu[0], hi = band.mu[0];
     for (float v : band.mu) lo = std::min(lo, v), hi = std::max(hi, v);
     const std::string script = (test::scratchDir() / "read.py").string();
-    std::ofstream(script) << "import sys, pyopenvdb as vdb\n"
-                             "grids, meta = vdb.readAll(sys.argv[1])\n"
-                             "print('version', meta['gpisvdb_version'])\n"
-                             "for g in grids:\n"
-                             "    lo, hi = g.evalMinMax()\n"
-                             "    print('|'.join([g.name, g.gridClass, '%.9g' % g.transform.voxelSize()[0], str(g.activeVoxelCount()), str(lo), str(hi),\n"
-                             "                    g.creator, str(g.metadata.get('is_local_space'))]))\n";
+    std::ofstream(script)
+        << "import sys, pyopenvdb as vdb\n"
+           "grids, meta = vdb.readAll(sys.argv[1])\n"
+           "print('version', meta['gpisvdb_version'])\n"
+           "for g in grids:\n"
+           "    lo, hi = g.evalMinMax()\n"
+           "    print('|'.join([g.name, g.gridClass, '%.9g' % g.transform.voxelSize()[0], str(g.activeVoxelCount()), str(lo), str(hi),\n"
+           "                    g.creator, str(g.metadata.get('is_local_space'))]))\n";
     int code = 0;
     const std::string text = runCapture("/usr/bin/python3 " + script + " " + path, code);
     INFO(text);
@@ -217,8 +218,7 @@ TEST_CASE("output: the Selling grids rebuild the Laplacian from the file alone",
         // === And L v entry by entry
         const Eigen::VectorXd lvFile = L * vf, lvRef = reference * v;
         double worst = 0;
-        for (std::size_t i = 0; i < band.size(); ++i)
-            worst = std::max(worst, std::abs(lvFile[long(i)] - lvRef[acc.getValue(order[i])]));
+        for (std::size_t i = 0; i < band.size(); ++i) worst = std::max(worst, std::abs(lvFile[long(i)] - lvRef[acc.getValue(order[i])]));
         CHECK(worst <= (half ? 2e-3 : 1e-6) * lvRef.lpNorm<Eigen::Infinity>());
     }
 }
@@ -239,9 +239,11 @@ TEST_CASE("output: writeVdb refuses active inf or NaN values, and values a half 
         return g;
     };
     openvdb::initialize();
-    for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()}) {
+    for (float bad :
+         {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()}) {
         std::filesystem::remove(path);
-        CHECK_THROWS_WITH(gpisvdb::writeVdb({make(bad)}, path, {}), Catch::Contains("grid 'f': 1 active values (the first at voxel 1,2,3)"));
+        CHECK_THROWS_WITH(gpisvdb::writeVdb({make(bad)}, path, {}),
+                          Catch::Contains("grid 'f': 1 active values (the first at voxel 1,2,3)"));
         CHECK_THROWS_WITH(gpisvdb::writeVdb({makeVec(bad)}, path, {}), Catch::Contains("grid 'v'"));
         CHECK_FALSE(std::filesystem::exists(path));
     }
@@ -263,7 +265,8 @@ TEST_CASE("output: writeVdb refuses active inf or NaN values, and values a half 
     gpisvdb::writeVdb({make(6e4f)}, path, {}, half);
 }
 
-TEST_CASE("output: writeBandVdb streams the grids of bandGrids and sellingGrids one at a time, and a refused grid leaves the old file", "[output]") {
+TEST_CASE("output: writeBandVdb streams the grids of bandGrids and sellingGrids one at a time, and a refused grid leaves the old file",
+          "[output]") {
     const Band band = test::sphereBand();
     std::vector<float> scalar(band.size()), vec(3 * band.size());
     for (std::size_t i = 0; i < band.size(); ++i) {

@@ -1,7 +1,7 @@
 // The one table of parameter names (app/parameter_names.h): every field the engine's messages name has a row, every
 // flag and keyword in it is one the command line and the Python module define, and both front ends translate with it.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <filesystem>
 #include <regex>
 #include <set>

@@ -1,7 +1,7 @@
-#include <catch2/catch.hpp>
-#include <Eigen/SparseCholesky>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
+#include <Eigen/SparseCholesky>
 #include <tbb/global_control.h>
 
 #include "allocation_counter.h"
@@ -15,9 +15,7 @@ using namespace gpisvdb;
 
 namespace {
 
-Eigen::VectorXd asDouble(const std::vector<float>& v) {
-    return Eigen::Map<const Eigen::VectorXf>(v.data(), long(v.size())).cast<double>();
-}
+Eigen::VectorXd asDouble(const std::vector<float>& v) { return Eigen::Map<const Eigen::VectorXf>(v.data(), long(v.size())).cast<double>(); }
 
 /// L⁻¹ b by a sparse LDLᵀ of L assembled in double (the operator the matrix-free L applies), factorised once per
 /// band (≈ 3 s on the torus band) and shared by the test cases that compare against it.
@@ -135,9 +133,9 @@ TEST_CASE("pcg: a solve allocates nothing of size N beyond the solver's work vec
         const SymmetricOperator* op;
         Preconditioner pc;
     };
-    for (const Case& c : {Case{"matrix-free, Jacobi", &L, Preconditioner::Jacobi},
-                          Case{"assembled, Jacobi", &assembled, Preconditioner::Jacobi},
-                          Case{"assembled, incomplete Cholesky", &assembled, Preconditioner::IncompleteCholesky}}) {
+    for (const Case& c :
+         {Case{"matrix-free, Jacobi", &L, Preconditioner::Jacobi}, Case{"assembled, Jacobi", &assembled, Preconditioner::Jacobi},
+          Case{"assembled, incomplete Cholesky", &assembled, Preconditioner::IncompleteCholesky}}) {
         INFO(c.name);
         PcgOptions o;
         o.preconditioner = c.pc;
@@ -300,9 +298,9 @@ TEST_CASE("pcg: reaches 1e-8 and 1e-10 by iterative refinement where float stall
         std::vector<double> x;
         const PcgResult r = solvePcg(L, bd, x, options(tol));
         const double truth = stencilResidual(band, x, bd);
-        INFO("tolerance " << tol << ": " << r.refinements << " refinements, " << r.iterations << " iterations ("
-                          << r.innerIterations << " inner), residual " << r.relativeResidual << ", recomputed " << truth
-                          << ", float-rounded " << r.floatResidual);
+        INFO("tolerance " << tol << ": " << r.refinements << " refinements, " << r.iterations << " iterations (" << r.innerIterations
+                          << " inner), residual " << r.relativeResidual << ", recomputed " << truth << ", float-rounded "
+                          << r.floatResidual);
         REQUIRE(r.converged);
         CHECK(r.refinements >= 2);
         CHECK(r.innerIterations == r.iterations);  // refined from the start: every iteration is an inner one
@@ -454,19 +452,21 @@ TEST_CASE("pcg: the multigrid and Jacobi preconditioners reach the same solution
     const SparseMatrixF A = assembleLaplacian(band);
     const LaplacianOperator matrixFree(band);
     const AssembledOperator assembled(A);
-    for (const SymmetricOperator* op : {static_cast<const SymmetricOperator*>(&matrixFree), static_cast<const SymmetricOperator*>(&assembled)}) {
+    for (const SymmetricOperator* op :
+         {static_cast<const SymmetricOperator*>(&matrixFree), static_cast<const SymmetricOperator*>(&assembled)}) {
         const PcgSolver solver(*op, multigridOptions(1e-6));
         REQUIRE(solver.preconditioner() == Preconditioner::Multigrid);
         REQUIRE(solver.multigrid());
         std::vector<float> x;
         const PcgResult r = solver.solve(b, x);
         INFO(band.size() << " voxels: Jacobi " << rj.iterations << " iterations, multigrid " << r.iterations << " ("
-             << solver.multigrid()->levels() << " levels, operator complexity " << solver.multigrid()->operatorComplexity() << ")");
+                         << solver.multigrid()->levels() << " levels, operator complexity " << solver.multigrid()->operatorComplexity()
+                         << ")");
         REQUIRE(r.converged);
         // The reported residual is the true one: from the stencils for the matrix-free L, of the float entries for
         // the assembled one (they differ by ~1e-6: the first test case).
-        const double truth = op == &matrixFree ? stencilResidual(band, x, b)
-                                               : (A.cast<double>() * asDouble(x) - asDouble(b)).norm() / asDouble(b).norm();
+        const double truth =
+            op == &matrixFree ? stencilResidual(band, x, b) : (A.cast<double>() * asDouble(x) - asDouble(b)).norm() / asDouble(b).norm();
         CHECK(r.relativeResidual == Approx(truth).epsilon(0.05));
         // A V-cycle does far more than a Jacobi sweep: here 8× fewer iterations at least (measured 12 against 180).
         CHECK(8 * r.iterations <= rj.iterations);
@@ -543,7 +543,8 @@ TEST_CASE("pcg: multigrid solves are identical for 1 and 2 threads, and reach 1e
     CHECK(stencilResidual(band, x, bd) <= 1e-10);
 }
 
-TEST_CASE("pcg: the automatic preconditioner is Jacobi on small or unassemblable operators, aggregation on large bands", "[pcg][multigrid]") {
+TEST_CASE("pcg: the automatic preconditioner is Jacobi on small or unassemblable operators, aggregation on large bands",
+          "[pcg][multigrid]") {
     const Band& band = test::torusGapBand();
     REQUIRE(band.size() < kMultigridMinUnknowns);
     const LaplacianOperator L(band);
@@ -563,8 +564,8 @@ TEST_CASE("pcg: bad multigrid options are refused", "[pcg][multigrid]") {
     const LaplacianOperator L(band);
     for (auto set : std::initializer_list<void (*)(BoomerAmgOptions&)>{
              [](BoomerAmgOptions& o) { o.strongThreshold = 0; }, [](BoomerAmgOptions& o) { o.strongThreshold = 1; },
-             [](BoomerAmgOptions& o) { o.strongThreshold = std::nan(""); },
-             [](BoomerAmgOptions& o) { o.maxInterpolationEntries = 0; }, [](BoomerAmgOptions& o) { o.aggressiveLevels = -1; }}) {
+             [](BoomerAmgOptions& o) { o.strongThreshold = std::nan(""); }, [](BoomerAmgOptions& o) { o.maxInterpolationEntries = 0; },
+             [](BoomerAmgOptions& o) { o.aggressiveLevels = -1; }}) {
         PcgOptions o = multigridOptions(1e-6);
         set(o.multigrid);
         CHECK_THROWS_AS(PcgSolver(L, o), ParameterError);

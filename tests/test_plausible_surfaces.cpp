@@ -15,7 +15,6 @@
 
 #include "band_fixtures.h"
 #include "cli_run.h"
-#include "png_stats.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/point_cloud.h"
 #include "gpisvdb/input/procedural.h"
@@ -24,6 +23,7 @@
 #include "gpisvdb/output/mean_surface.h"
 #include "gpisvdb/tasks/plausible_surfaces.h"
 #include "helpers.h"
+#include "png_stats.h"
 
 using namespace gpisvdb;
 
@@ -165,8 +165,8 @@ TEST_CASE("plausible surfaces: the draws' mean area matches the expected area su
     }
     const double mean = sum / kDraws, sd = std::sqrt((sum2 - kDraws * mean * mean) / (kDraws - 1));
     const double standardError = sd / std::sqrt(double(kDraws)), expected = band.mass();
-    INFO("draws' area " << mean << " +- " << standardError << " (sd " << sd << "), sum mu h^3 " << expected
-                        << ", mean surface " << surfaceArea(meanSurface(*drawGrid(band, band.mean), band.iso)));
+    INFO("draws' area " << mean << " +- " << standardError << " (sd " << sd << "), sum mu h^3 " << expected << ", mean surface "
+                        << surfaceArea(meanSurface(*drawGrid(band, band.mean), band.iso)));
     CHECK(std::abs(mean - expected) < 3 * standardError + 0.01 * expected);
 }
 
@@ -182,7 +182,8 @@ TEST_CASE("plausible surfaces: bad options are refused with the field they name"
     CHECK_THROWS_AS(SurfaceDraws(Samples{}, s, {}), Error);
 }
 
-TEST_CASE("plausible surfaces: the surfaces command writes one mesh per draw, named and commented by its index, as the report says", "[surfaces][cli]") {
+TEST_CASE("plausible surfaces: the surfaces command writes one mesh per draw, named and commented by its index, as the report says",
+          "[surfaces][cli]") {
     namespace fs = std::filesystem;
     using namespace test::cli;
     const std::string bunny = test::dataPath("bunny.obj"), dir = temp("draws"), json = temp("draws.json");
@@ -240,8 +241,7 @@ TEST_CASE("plausible surfaces: the surfaces command writes one mesh per draw, na
     // Refused with one line and nothing written
     const std::string bad = temp("draws_bad");
     fs::remove_all(bad);
-    for (const std::string& args : {common + " -n 0", common + " --draw-beta 1", common + " --first -1",
-                                    common + " --model regression"}) {
+    for (const std::string& args : {common + " -n 0", common + " --draw-beta 1", common + " --first -1", common + " --model regression"}) {
         INFO(args);
         const Run e = run(args + " -o " + bad);
         CHECK(e.code == 1);

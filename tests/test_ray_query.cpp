@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
+#include "cli_run.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/input/procedural.h"
 #include "gpisvdb/input/read_input.h"
@@ -12,7 +13,6 @@
 #include "gpisvdb/tasks/plausible_surfaces.h"
 #include "gpisvdb/tasks/ray_query.h"
 #include "helpers.h"
-#include "cli_run.h"
 
 #include <filesystem>
 #include <fstream>
@@ -36,8 +36,7 @@ std::vector<double> drawnHits(const GpisModel& model, const SurfaceDraws& draws,
         const std::vector<double> e = draws.perturbation(x);
         for (int k = 0; k < n; ++k) {
             const double phi = gamma + e[std::size_t(k)] - u;
-            if (std::isnan(hit[k]) && phi > 0)
-                hit[k] = j == 0 ? 0.0 : t[j - 1] + (t[j] - t[j - 1]) * previous[k] / (previous[k] - phi);
+            if (std::isnan(hit[k]) && phi > 0) hit[k] = j == 0 ? 0.0 : t[j - 1] + (t[j] - t[j - 1]) * previous[k] / (previous[k] - phi);
             previous[k] = phi;
         }
         bool all = true;
@@ -72,8 +71,8 @@ struct Case {
     Ray ray;
 };
 
-void compareWithDraws(const GpisModel& model, const Samples& samples, double s, const std::vector<Case>& cases,
-                      double hitTolerance, double distanceTolerance) {
+void compareWithDraws(const GpisModel& model, const Samples& samples, double s, const std::vector<Case>& cases, double hitTolerance,
+                      double distanceTolerance) {
     RayQueryOptions o;
     o.step = s / 4;
     SurfaceDrawOptions drawOptions;
@@ -86,9 +85,8 @@ void compareWithDraws(const GpisModel& model, const Samples& samples, double s, 
     for (std::size_t i = 0; i < cases.size(); ++i) {
         const Sampled mc = summary(drawnHits(model, draws, cases[i].ray, o.step, o.iso));
         const RayHit& h = hits[i];
-        INFO(cases[i].name << ": P(hit) " << h.hit << " against " << mc.hit << " +- " << mc.hitError << "; E[T | hit] "
-                           << h.expected << " against " << mc.expected << " +- " << mc.expectedError << "; std "
-                           << h.stddev << " against " << mc.stddev);
+        INFO(cases[i].name << ": P(hit) " << h.hit << " against " << mc.hit << " +- " << mc.hitError << "; E[T | hit] " << h.expected
+                           << " against " << mc.expected << " +- " << mc.expectedError << "; std " << h.stddev << " against " << mc.stddev);
         CHECK(std::abs(h.hit - mc.hit) <= 3 * mc.hitError + hitTolerance);
         if (mc.hit > 0.2) {
             CHECK(std::abs(h.expected - mc.expected) <= 3 * mc.expectedError + distanceTolerance);
@@ -178,8 +176,8 @@ TEST_CASE("ray query: the query command answers rays, points and a mesh as the e
             CHECK(v[8] == Approx(hits[std::size_t(i)].hit).margin(1e-6));
             CHECK(v[9] == Approx(hits[std::size_t(i)].expected).margin(1e-4));
         } else {
-            CHECK(v[8] < 1e-9);          // a ray far above the bunny, pointing away
-            CHECK(std::isnan(v[9]));     // no hit: no distance
+            CHECK(v[8] < 1e-9);       // a ray far above the bunny, pointing away
+            CHECK(std::isnan(v[9]));  // no hit: no distance
         }
     }
     CHECK(nlohmann::json::parse(std::ifstream(json))["query"]["rays"] == 3);
@@ -194,10 +192,10 @@ TEST_CASE("ray query: the query command answers rays, points and a mesh as the e
     CHECK_THAT(fileText(csv), Catch::Contains(",1,0,"));
     // Refused: one line, exit 1, no output
     const std::string bad = temp("query_bad.csv");
-    for (const std::string& args : {"--rays " + temp("q_short.csv", "0 0 0 1 0 0\n"), "--rays " + temp("q_zero.csv", "0 0 0 0 0 0 1\n"),
-                                    "--rays " + temp("q_nan.csv", "0 0 nan 1 0 0 1\n"), "--points " + temp("q_empty.xyz", "# none\n"),
-                                    "--rays " + rays + " --step 0", "--mesh " + tri + " --draws 0", "--mesh " + points,
-                                    "--mesh " + tri + " --model regression", std::string("")}) {
+    for (const std::string& args :
+         {"--rays " + temp("q_short.csv", "0 0 0 1 0 0\n"), "--rays " + temp("q_zero.csv", "0 0 0 0 0 0 1\n"),
+          "--rays " + temp("q_nan.csv", "0 0 nan 1 0 0 1\n"), "--points " + temp("q_empty.xyz", "# none\n"), "--rays " + rays + " --step 0",
+          "--mesh " + tri + " --draws 0", "--mesh " + points, "--mesh " + tri + " --model regression", std::string("")}) {
         INFO(args);
         fs::remove(bad);
         const Run e = run("query " + bunny + " " + args + " -o " + bad);

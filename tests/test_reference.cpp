@@ -115,9 +115,8 @@ TEST_CASE("reference: mu and T agree with the paper implementation's once its cl
         worstT = std::max(worstT, (T - v.T).norm() / peak);
         sumOurs += mu, sumReference += v.mu;
     }
-    INFO(a.reference.size() << " voxels, " << clippedVoxels << " clipped by the reference, peak mu " << peak
-                            << ", worst |d mu| / peak " << worstMu << ", worst |d T|_F / peak " << worstT
-                            << ", sum of ours / theirs " << sumOurs / sumReference);
+    INFO(a.reference.size() << " voxels, " << clippedVoxels << " clipped by the reference, peak mu " << peak << ", worst |d mu| / peak "
+                            << worstMu << ", worst |d T|_F / peak " << worstT << ", sum of ours / theirs " << sumOurs / sumReference);
     // The clip is what separates the two Ts on this input (without it ours exceed theirs by up to 20 % of the peak).
     CHECK(clippedVoxels > 0);
     // Measured 0.14 % and 0.15 % of the peak, 0.1 % in the sum (docs/reference.md#agreement): 13× our own QMC error at

@@ -1,6 +1,6 @@
 #include <catch2/catch.hpp>
-#include <tbb/global_control.h>
 #include <Eigen/Eigenvalues>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <fstream>
@@ -151,8 +151,8 @@ TEST_CASE("regression gpis: the pole-to-pole geodesic converges as the labels gr
         length.push_back(geo.paths[0].length);
         distance.push_back(geo.paths[0].distance);
     }
-    INFO("path length " << length[0] << ", " << length[1] << ", " << length[2] << ", " << length[3] << "; U "
-                        << distance[0] << ", " << distance[1] << ", " << distance[2] << ", " << distance[3]);
+    INFO("path length " << length[0] << ", " << length[1] << ", " << length[2] << ", " << length[3] << "; U " << distance[0] << ", "
+                        << distance[1] << ", " << distance[2] << ", " << distance[3]);
     CHECK(std::abs(distance[3] - distance[2]) < std::abs(distance[1] - distance[0]));
     CHECK(distance[3] < distance[0]);  // less uncertainty, shorter distances (paper App. F)
     CHECK(std::abs(length[3] - M_PI) < 0.05 * M_PI);

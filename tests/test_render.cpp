@@ -217,6 +217,5 @@ TEST_CASE("render: colour map and slice names parse, and others are refused", "[
     CHECK(sliceOf("x=-2.5").value == -2.5);
     CHECK(sliceOf("y=1e-3").axis == 1);
     CHECK(sliceOf("z=0").axis == 2);
-    for (const char* bad : {"", "z", "z=", "w=1", "zz=1", "z=abc", "z=1x", "z=nan", "z=inf"})
-        CHECK_THROWS_AS(sliceOf(bad), ParameterError);
+    for (const char* bad : {"", "z", "z=", "w=1", "zz=1", "z=abc", "z=1x", "z=nan", "z=inf"}) CHECK_THROWS_AS(sliceOf(bad), ParameterError);
 }

@@ -1,6 +1,6 @@
 // The repository stands alone: what a user clones holds every file its docs, tests and benchmarks name.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cctype>
 #include <filesystem>
 #include <fstream>
@@ -143,7 +143,8 @@ TEST_CASE("repository: engine stages include only earlier stages and their own o
     // The engine's stages in the order they build on one another (README.md, Layout): a file of one stage may
     // include public headers (engine/include/gpisvdb/<stage>/) of its own and earlier stages, private headers
     // (engine/src/<stage>/) of its own stage, and core's private helpers (SIMD lanes, vector math, Morton order).
-    const std::vector<std::string> stages = {"core", "input", "model", "kacrice", "stencil", "band", "ops", "solve", "tasks", "output", "app"};
+    const std::vector<std::string> stages = {"core", "input", "model", "kacrice", "stencil", "band",
+                                             "ops",  "solve", "tasks", "output",  "app"};
     auto rank = [&](const std::string& stage) {
         const auto it = std::find(stages.begin(), stages.end(), stage);
         return it == stages.end() ? -1 : int(it - stages.begin());
@@ -211,4 +212,25 @@ TEST_CASE("repository: no source file of engine/, tools/, mpi/ or python/ is ove
     INFO(checked << " files checked; over 500 lines:" << list);
     CHECK(checked > 100);
     CHECK(long_.empty());
+}
+
+TEST_CASE("repository: every C++ source file is as clang-format writes it (.clang-format)", "[repository]") {
+    // One format, checked rather than reviewed (tools/format rewrites the files). The style's output changes between
+    // clang-format versions: this is Debian 12's (14), which tools/setup installs.
+    const auto version = runShell("clang-format --version");
+    INFO("clang-format: " << version.out << version.err << " (tools/setup installs it)");
+    REQUIRE(version.code == 0);
+    CHECK_THAT(version.out, Catch::Contains("version 14."));
+    std::string list;
+    std::size_t checked = 0;
+    for (const fs::path& f : trackedFiles()) {
+        const std::string ext = f.extension().string();
+        if (ext != ".cpp" && ext != ".h") continue;
+        list += " '" + f.string() + "'";
+        ++checked;
+    }
+    const auto r = runShell("clang-format --style=file --dry-run --Werror" + list + " 2>&1 | grep -m 20 'error:'");
+    INFO(checked << " files checked; the first differences (tools/format fixes them):\n" << r.out);
+    CHECK(checked > 200);
+    CHECK(r.out.empty());
 }

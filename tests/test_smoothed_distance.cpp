@@ -1,6 +1,6 @@
 #include <catch2/catch.hpp>
-#include <tbb/global_control.h>
 #include <openvdb/tools/Interpolation.h>
+#include <tbb/global_control.h>
 
 #include <random>
 
@@ -45,8 +45,8 @@ TEST_CASE("smoothed distance: the tree equals the exact sum within the stated bo
                 worst = std::max(worst, std::abs(d.at(x, tol, &t) - d.exact(x)));
                 terms += double(t);
             }
-            INFO("alpha " << alpha << ", tolerance " << tol << ": worst error " << worst << ", mean terms " << terms / xs.size()
-                          << " of " << band.size());
+            INFO("alpha " << alpha << ", tolerance " << tol << ": worst error " << worst << ", mean terms " << terms / xs.size() << " of "
+                          << band.size());
             CHECK(worst <= tol * (1 + 1e-6) + 1e-12);
             // Gains are largest for sharp α (far nodes vanish) and smooth α (nodes are nearly constant); α ≈ 3/radius
             // near the band keeps most terms.

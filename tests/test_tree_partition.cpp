@@ -47,8 +47,7 @@ TEST_CASE("tree partition: leaves are cut into contiguous ranges of nearly equal
     std::uniform_real_distribution<double> w(0.5, 1.5);
     for (const Coord& c : randomCoords(rng, 2000, 5000)) leaves.emplace_back(leafOrigin(c), w(rng));
     std::sort(leaves.begin(), leaves.end());
-    leaves.erase(std::unique(leaves.begin(), leaves.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
-                 leaves.end());
+    leaves.erase(std::unique(leaves.begin(), leaves.end(), [](const auto& a, const auto& b) { return a.first == b.first; }), leaves.end());
     double total = 0, heaviest = 0;
     for (const auto& l : leaves) total += l.second, heaviest = std::max(heaviest, l.second);
     for (const int parts : {1, 2, 3, 7, 64}) {
@@ -71,7 +70,8 @@ TEST_CASE("tree partition: leaves are cut into contiguous ranges of nearly equal
     }
 }
 
-TEST_CASE("tree partition: more parts than leaves leave the extra parts empty, no leaves send all to part 0, zero parts are refused", "[tree_partition]") {
+TEST_CASE("tree partition: more parts than leaves leave the extra parts empty, no leaves send all to part 0, zero parts are refused",
+          "[tree_partition]") {
     const std::vector<std::pair<Coord, double>> two = {{Coord(0, 0, 0), 1.0}, {Coord(8, 0, 0), 1.0}};
     const TreePartition p = partitionLeaves(two, 5);
     std::vector<int> owners = {p.owner(Coord(0, 0, 0)), p.owner(Coord(8, 0, 0))};

@@ -176,7 +176,8 @@ TEST_CASE("validation: where T's stencils change across the domain, the Poisson 
     CHECK(order2 > 1.7);
 }
 
-TEST_CASE("validation: the expected Dirichlet energy of x on the unit sphere tends to 8 pi / 3 as sigma falls, and the naive form does not", "[validation]") {
+TEST_CASE("validation: the expected Dirichlet energy of x on the unit sphere tends to 8 pi / 3 as sigma falls, and the naive form does not",
+          "[validation]") {
     // 1280-triangle sphere at the paper's resolution h = h* (Eq. 25) and η = 1e-6: u = 0 outside the band adds
     // Σ_boundary h λ u², which grows like η/h for a u that is not small at the band's edge (docs/operators.md).
     // Measured (bench/results/energy.json): L +13.1%, +1.37%, −0.72%, −0.67%; the naive D_φ G_φ reaches +330% at

@@ -6,11 +6,12 @@
 //
 // Usage: gpgp_driver --input F.gdp [--reg 0.5] [--beta 3] [--eta 0.1] [--qmc 512] [--grid_size N (default: its
 //        heuristic)] [--neig 10] [--source X,Y,Z] [--no-green] [--no-fmm] [--no-eigen] [--dump PREFIX]
+#include <Spectra/SymGEigsSolver.h>  // first, in a block of its own: the MatOp headers use its CompInfo
+
 #include <Eigen/IterativeLinearSolvers>
-#include <Spectra/SymGEigsSolver.h>  // first: the MatOp headers use its CompInfo
+#include <omp.h>
 #include <Spectra/MatOp/SparseRegularInverse.h>
 #include <Spectra/MatOp/SparseSymMatProd.h>
-#include <omp.h>
 
 #include <chrono>
 #include <cstdio>
@@ -86,8 +87,8 @@ int main(int argc, char** argv) {
     StochasticCalculus::NQMC = qmc;
     std::ostringstream json;
     json.precision(10);
-    json << "{\"input\": \"" << input << "\", \"threads\": " << omp_get_max_threads() << ", \"reg\": " << reg
-         << ", \"beta\": " << beta << ", \"eta\": " << eta << ", \"qmc\": " << qmc;
+    json << "{\"input\": \"" << input << "\", \"threads\": " << omp_get_max_threads() << ", \"reg\": " << reg << ", \"beta\": " << beta
+         << ", \"eta\": " << eta << ", \"qmc\": " << qmc;
 
     // === Dipoles, the Barnes–Hut field, the voxel size
     auto t = Clock::now();
@@ -106,8 +107,8 @@ int main(int argc, char** argv) {
         h = 2.0 / gridSize;
     }
     const double tResolution = since(t);
-    std::printf("[load, tree, resolution] %.3f + %.3f + %.3f s: %d dipoles, lfs %.6g, h %.6g\n", tLoad, tTree, tResolution,
-                dipoles.size(), lfs, h);
+    std::printf("[load, tree, resolution] %.3f + %.3f + %.3f s: %d dipoles, lfs %.6g, h %.6g\n", tLoad, tTree, tResolution, dipoles.size(),
+                lfs, h);
     json << ", \"dipoles\": " << dipoles.size() << ", \"lfs\": " << lfs << ", \"smoothing\": " << reg * lfs << ", \"h\": " << h;
 
     // === The band with μ and T
@@ -123,8 +124,8 @@ int main(int argc, char** argv) {
     const double dx = calculus.getDx(), dx3 = dx * dx * dx;
     double traceT = 0;
     for (const auto& entry : calculus.getNodes()) traceT += entry.second.G.trace();
-    std::printf("[band, mu, T] %.3f s (+ %.3f s indexing): %d voxels, iso %.6g, sum mu h^3 %.6g, mu in [%.4g, %.4g]\n", tBand,
-                tIndex, m, band.iso, mu.sum() * dx3, mu.minCoeff(), mu.maxCoeff());
+    std::printf("[band, mu, T] %.3f s (+ %.3f s indexing): %d voxels, iso %.6g, sum mu h^3 %.6g, mu in [%.4g, %.4g]\n", tBand, tIndex, m,
+                band.iso, mu.sum() * dx3, mu.minCoeff(), mu.maxCoeff());
     json << ", \"iso\": " << band.iso << ", \"voxels\": " << m << ", \"dx\": " << dx << ", \"mass\": " << mu.sum() * dx3
          << ", \"trace_T_mass\": " << traceT * dx3 << ", \"mu_max\": " << mu.maxCoeff() << ", \"seconds\": {\"load\": " << tLoad
          << ", \"tree\": " << tTree << ", \"resolution\": " << tResolution << ", \"band\": " << tBand << ", \"index\": " << tIndex;
@@ -197,8 +198,8 @@ int main(int argc, char** argv) {
             if (entry.second.id >= 0 && entry.second.id < m) byId[std::size_t(entry.second.id)] = &entry.second;
         for (int i = 0; i < m; ++i) {
             const auto& G = byId[std::size_t(i)]->G;
-            std::fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", X(0, i), X(1, i), X(2, i), mu(i), G(0, 0),
-                         G(0, 1), G(0, 2), G(1, 1), G(1, 2), G(2, 2), byId[std::size_t(i)]->pred.mean(0));
+            std::fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", X(0, i), X(1, i), X(2, i), mu(i), G(0, 0), G(0, 1),
+                         G(0, 2), G(1, 1), G(1, 2), G(2, 2), byId[std::size_t(i)]->pred.mean(0));
         }
         std::fclose(f);
     }

@@ -2,8 +2,8 @@
 #include <chrono>
 #include <iostream>
 
-#include "mpi_commands.h"
 #include "mpi_band_job.h"
+#include "mpi_commands.h"
 
 namespace gpisvdb::cli {
 
@@ -17,8 +17,9 @@ void addMpiBand(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
     cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("-o,--output", a->output, "output .vdb (written by rank 0)")->required();
     addBandFlags(*cmd, a->flags);
-    cmd->footer("The same grids and metadata as gpisvdb band; the report adds an 'mpi' section.\n"
-                "Example:\n  mpirun -n 4 gpisvdb-mpi band bunny.obj -o bunny.vdb --sigma 1 --threads 1");
+    cmd->footer(
+        "The same grids and metadata as gpisvdb band; the report adds an 'mpi' section.\n"
+        "Example:\n  mpirun -n 4 gpisvdb-mpi band bunny.obj -o bunny.vdb --sigma 1 --threads 1");
     onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) {
         MpiBandCommand run = startMpiBandCommand(ranks, a->input, a->output, a->flags);
         const nlohmann::json mpiSection = mpiReport(ranks, run.band);
@@ -37,8 +38,8 @@ void addMpiBand(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
                 commitReport(*run.report, report);
             }
             if (!a->flags.model.quiet)
-                std::cerr << "band: " << job.result.band.size() << " voxels of size " << job.options.voxelSize
-                          << " on " << ranks.size << " ranks, mass " << job.result.band.mass() << ", " << total << " s\n";
+                std::cerr << "band: " << job.result.band.size() << " voxels of size " << job.options.voxelSize << " on " << ranks.size
+                          << " ranks, mass " << job.result.band.mass() << ", " << total << " s\n";
         });
     });
 }

@@ -9,12 +9,14 @@
 namespace gpisvdb::cli {
 
 void addMpiGeodesic(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    auto* cmd = app.add_subcommand("geodesic", "geodesic distance and shortest paths (as gpisvdb geodesic): the band built across the MPI ranks, the march on rank 0");
+    auto* cmd = app.add_subcommand(
+        "geodesic", "geodesic distance and shortest paths (as gpisvdb geodesic): the band built across the MPI ranks, the march on rank 0");
     auto a = std::make_shared<GeodesicArgs>();
     addGeodesicFlags(*cmd, *a);
-    cmd->footer("The band is built across the ranks and gathered on rank 0, which marches: its memory bounds the band\n"
-                "(the band and about 65 bytes per voxel for the march).\n"
-                "Example:\n  mpirun -n 4 gpisvdb-mpi geodesic bunny.obj --source 0.5,6,1 --target -2,9,0 -o geo.vdb --threads 1");
+    cmd->footer(
+        "The band is built across the ranks and gathered on rank 0, which marches: its memory bounds the band\n"
+        "(the band and about 65 bytes per voxel for the march).\n"
+        "Example:\n  mpirun -n 4 gpisvdb-mpi geodesic bunny.obj --source 0.5,6,1 --target -2,9,0 -o geo.vdb --threads 1");
     onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) {
         GeodesicRequest request;
         mpi::together(ranks, [&] { request = geodesicRequest(*a, ranks.rank == 0); });

@@ -65,30 +65,30 @@ void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
             report["solver"]["method"] = std::string("PETSc CG, ") + preconditionerName(g.preconditioner) +
                                          (g.preconditioner == Preconditioner::Multigrid ? " (hypre BoomerAMG)" : "");
             report["mpi"] = mpiSection;
-            report["green"] = {{"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}},
-                               {"source_index", g.sourceIndex}};
-            report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand},
-                                   {"operators", g.assembleSeconds}, {"setup", g.setupSeconds},
-                                   {"solve", g.solveSeconds}, {"total", total}};
+            report["green"] = {{"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}}, {"source_index", g.sourceIndex}};
+            report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", g.assembleSeconds},
+                                   {"setup", g.setupSeconds},   {"solve", g.solveSeconds}, {"total", total}};
             report["outputs"] = {a.output};
             commitReport(*run.report, report);
         }
         if (!a.flags.model.quiet)
             std::cerr << "green: " << band.size() << " voxels on " << ranks.size << " ranks, PETSc CG ("
-                      << preconditionerName(g.preconditioner) << ") " << g.iterations << " iterations to "
-                      << g.relativeResidual << ", " << total << " s\n";
+                      << preconditionerName(g.preconditioner) << ") " << g.iterations << " iterations to " << g.relativeResidual << ", "
+                      << total << " s\n";
     });
 }
 
 }  // namespace
 
 void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    auto* cmd = app.add_subcommand("green", "Green's function of the GPIS Laplacian (as gpisvdb green), solved across the MPI ranks by PETSc");
+    auto* cmd =
+        app.add_subcommand("green", "Green's function of the GPIS Laplacian (as gpisvdb green), solved across the MPI ranks by PETSc");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("Solves L f = M delta_y with PETSc's CG; the solver's settings can be overridden through PETSC_OPTIONS\n"
-                "(prefix green_, e.g. PETSC_OPTIONS='-green_pc_hypre_boomeramg_strong_threshold 0.6').\n"
-                "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --threads 1");
+    cmd->footer(
+        "Solves L f = M delta_y with PETSc's CG; the solver's settings can be overridden through PETSC_OPTIONS\n"
+        "(prefix green_, e.g. PETSC_OPTIONS='-green_pc_hypre_boomeramg_strong_threshold 0.6').\n"
+        "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --threads 1");
     onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) { execute(ranks, *a, start); });
 }
 

@@ -25,11 +25,11 @@ void execute(const mpi::Ranks& ranks, RegressArgs& a, Clock::time_point start) {
     mpi::together(ranks, [&] {
         if (ranks.rank != 0) return;
         const double voxels = double(run.band.globalSize), local = double(run.band.local.size());
-        estimateRegression(run.job, options, points, run.band.globalSize, a.eigen.count,
-                           {{"gathered_band", (voxels - local) * run.band.local.bytesPerVoxel()},
-                            {"eigenvectors", 8.0 * voxels * double(a.eigen.count)}},
-                           "regression on rank 0 (with the whole band and the eigenvectors, before the eigen solver runs)",
-                           "libraries, input, this rank's band");
+        estimateRegression(
+            run.job, options, points, run.band.globalSize, a.eigen.count,
+            {{"gathered_band", (voxels - local) * run.band.local.bytesPerVoxel()}, {"eigenvectors", 8.0 * voxels * double(a.eigen.count)}},
+            "regression on rank 0 (with the whole band and the eigenvectors, before the eigen solver runs)",
+            "libraries, input, this rank's band");
     });
     const auto tSolve = Clock::now();
     const mpi::DistributedSpectrum s = mpi::spectrumSlepc(ranks, run.band, a.eigen, run.progress);
@@ -53,20 +53,22 @@ void execute(const mpi::Ranks& ranks, RegressArgs& a, Clock::time_point start) {
     const nlohmann::json spectrumSection = slepcSpectrumReport(s);
     mpi::together(ranks, [&] {
         if (ranks.rank == 0)
-            finishRegress(run.job, a, options, points, e, nullptr, secondsSpectrum, *run.out, run.report.get(),
-                          run.progress, start, {{"mpi", mpiSection}, {"spectrum", spectrumSection}});
+            finishRegress(run.job, a, options, points, e, nullptr, secondsSpectrum, *run.out, run.report.get(), run.progress, start,
+                          {{"mpi", mpiSection}, {"spectrum", spectrumSection}});
     });
 }
 
 }  // namespace
 
 void addMpiRegress(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    auto* cmd = app.add_subcommand("regress", "Gaussian-process regression on the GPIS (as gpisvdb regress): eigenpairs across the MPI ranks by SLEPc");
+    auto* cmd = app.add_subcommand(
+        "regress", "Gaussian-process regression on the GPIS (as gpisvdb regress): eigenpairs across the MPI ranks by SLEPc");
     auto a = std::make_shared<RegressArgs>();
     addRegressFlags(*cmd, *a);
-    cmd->footer("The eigenpairs are SLEPc's across the ranks (see spectrum); rank 0 gathers them with the band and\n"
-                "computes the posterior (its memory holds the band and the k eigenvectors in double).\n"
-                "Example:\n  mpirun -n 4 gpisvdb-mpi regress bunny.obj --data temperature.csv -o regression.vdb --threads 1");
+    cmd->footer(
+        "The eigenpairs are SLEPc's across the ranks (see spectrum); rank 0 gathers them with the band and\n"
+        "computes the posterior (its memory holds the band and the k eigenvectors in double).\n"
+        "Example:\n  mpirun -n 4 gpisvdb-mpi regress bunny.obj --data temperature.csv -o regression.vdb --threads 1");
     onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) { execute(ranks, *a, start); });
 }
 

@@ -43,28 +43,32 @@ void execute(const mpi::Ranks& ranks, SpectrumArgs& a, Clock::time_point start) 
             nlohmann::json report = bandReport(job, a.flags);
             report["spectrum"] = slepcSpectrumReport(s);
             report["mpi"] = mpiSection;
-            report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand},
-                                   {"operators", s.assembleSeconds}, {"solve", s.solveSeconds}, {"total", total}};
+            report["timings_s"] = {{"model", job.secondsModel},
+                                   {"band", job.secondsBand},
+                                   {"operators", s.assembleSeconds},
+                                   {"solve", s.solveSeconds},
+                                   {"total", total}};
             report["outputs"] = {a.output};
             commitReport(*run.report, report);
         }
         if (!a.flags.model.quiet)
-            std::cerr << "spectrum: " << band.size() << " voxels on " << ranks.size << " ranks, "
-                      << s.values.size() << " eigenpairs, lambda " << s.values(0) << " ... "
-                      << s.values(s.values.size() - 1) << ", max residual " << s.residuals.maxCoeff() << ", "
-                      << total << " s\n";
+            std::cerr << "spectrum: " << band.size() << " voxels on " << ranks.size << " ranks, " << s.values.size()
+                      << " eigenpairs, lambda " << s.values(0) << " ... " << s.values(s.values.size() - 1) << ", max residual "
+                      << s.residuals.maxCoeff() << ", " << total << " s\n";
     });
 }
 
 }  // namespace
 
 void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    auto* cmd = app.add_subcommand("spectrum", "lowest eigenpairs of the GPIS Laplacian (as gpisvdb spectrum), solved across the MPI ranks by SLEPc");
+    auto* cmd = app.add_subcommand("spectrum",
+                                   "lowest eigenpairs of the GPIS Laplacian (as gpisvdb spectrum), solved across the MPI ranks by SLEPc");
     auto a = std::make_shared<SpectrumArgs>();
     addSpectrumFlags(*cmd, *a, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)");
-    cmd->footer("lanczos: SLEPc Krylov-Schur on L^-1 M, L factored by MUMPS (auto up to 1e6 voxels); lobpcg: SLEPc LOBPCG\n"
-                "preconditioned by hypre BoomerAMG. PETSC_OPTIONS overrides the solver's settings (prefix spectrum_).\n"
-                "Example:\n  mpirun -n 4 gpisvdb-mpi spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --threads 1");
+    cmd->footer(
+        "lanczos: SLEPc Krylov-Schur on L^-1 M, L factored by MUMPS (auto up to 1e6 voxels); lobpcg: SLEPc LOBPCG\n"
+        "preconditioned by hypre BoomerAMG. PETSC_OPTIONS overrides the solver's settings (prefix spectrum_).\n"
+        "Example:\n  mpirun -n 4 gpisvdb-mpi spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --threads 1");
     onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) { execute(ranks, *a, start); });
 }
 

@@ -21,8 +21,9 @@ int run(int argc, char** argv, const gpisvdb::mpi::Ranks& ranks) {
     CLI::App app{"gpisvdb-mpi: gpisvdb's band, green, spectrum, geodesic and regress commands across MPI ranks (PETSc, hypre, SLEPc)"};
     app.set_version_flag("--version", std::string("gpisvdb-mpi ") + GPISVDB_VERSION);
     app.require_subcommand(1);
-    app.footer("Run under mpirun; every rank reads the input. Exit codes as gpisvdb's.\n"
-               "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --threads 1");
+    app.footer(
+        "Run under mpirun; every rank reads the input. Exit codes as gpisvdb's.\n"
+        "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --threads 1");
     cli::Action action;
     cli::addMpiBand(app, action, ranks);
     cli::addMpiGreen(app, action, ranks);

@@ -7,8 +7,7 @@
 
 namespace gpisvdb::cli {
 
-MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& input, const std::string& output,
-                                   BandFlags& flags) {
+MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& input, const std::string& output, BandFlags& flags) {
     flags.vdb.nanoVdb = flags.vdb.nanoVdb || isNanoVdbPath(output);
     MpiBandCommand c;
     InputData data;
@@ -77,8 +76,11 @@ nlohmann::json slepcSpectrumReport(const mpi::DistributedSpectrum& s) {
         residuals(s.residuals.data(), s.residuals.data() + s.residuals.size());
     return {{"method", s.method == EigenMethod::Lobpcg ? "SLEPc LOBPCG preconditioned by the multigrid (hypre BoomerAMG)"
                                                        : "SLEPc Krylov-Schur on L^-1 M, MUMPS Cholesky of L"},
-            {"count", values.size()}, {"eigenvalues", values}, {"residuals", residuals},
-            {"orthonormality_error", s.orthonormalityError}, {"iterations", s.iterations}};
+            {"count", values.size()},
+            {"eigenvalues", values},
+            {"residuals", residuals},
+            {"orthonormality_error", s.orthonormalityError},
+            {"iterations", s.iterations}};
 }
 
 }  // namespace gpisvdb::cli

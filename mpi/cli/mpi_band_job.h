@@ -21,8 +21,7 @@ struct MpiBandCommand {
 
 /// Reads the input, opens the outputs and builds the band across `ranks`. Collective; errors are agreed
 /// (mpi::together). An output ending in .nvdb sets flags.vdb.nanoVdb.
-MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& input, const std::string& output,
-                                   BandFlags& flags);
+MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& input, const std::string& output, BandFlags& flags);
 
 /// The whole band on rank 0 (c.job.result.band), for the .vdb or a task that runs there, and the band's warnings
 /// printed by rank 0. Called as late as the command allows (after its distributed solve), so that rank 0 does not

@@ -58,14 +58,13 @@ TreePartition samplePartition(const Ranks& ranks, const Samples& samples, double
     std::map<Coord, double> weight;
     for (std::size_t i = 0; i < samples.size(); ++i) {
         const Vec3d k = samples.position[i] / h;
-        weight[leafOrigin(Coord(int(std::lround(k.x())), int(std::lround(k.y())), int(std::lround(k.z()))))] +=
-            samples.normal[i].norm();
+        weight[leafOrigin(Coord(int(std::lround(k.x())), int(std::lround(k.y())), int(std::lround(k.z()))))] += samples.normal[i].norm();
     }
     return partitionLeaves({weight.begin(), weight.end()}, ranks.size);
 }
 
-DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model, const Samples& samples,
-                                     const BandOptions& o, const Progress& progress) {
+DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model, const Samples& samples, const BandOptions& o,
+                                     const Progress& progress) {
     const auto start = Clock::now();
     const std::size_t P = std::size_t(ranks.size);
     DistributedBand out;
@@ -120,9 +119,9 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
             checkVoxelBudget(stats.evaluated, o);
             evaluatedHere += frontier.size();
             for (std::size_t b = 0; b < frontier.size(); b += o.batchVoxels) {
-                std::vector<BandVoxel> values = evaluateBandVoxels(model, frontier, b, std::min(frontier.size(), b + o.batchVoxels),
-                                                                   o.voxelSize, o.iso, rule, o.voxelValues, progress.interruptOnly(),
-                                                                   stats);
+                std::vector<BandVoxel> values =
+                    evaluateBandVoxels(model, frontier, b, std::min(frontier.size(), b + o.batchVoxels), o.voxelSize, o.iso, rule,
+                                       o.voxelValues, progress.interruptOnly(), stats);
                 if (first) firstLevel.insert(firstLevel.end(), values.begin(), values.end());
                 else keep(values);
             }

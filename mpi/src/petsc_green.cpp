@@ -59,18 +59,20 @@ std::size_t nearestBandVoxel(const Ranks& ranks, const DistributedBand& d, const
     return std::size_t(all.index);
 }
 
-DistributedGreen greensFunctionPetsc(const Ranks& ranks, const DistributedBand& d, const Vec3d& source,
-                                     const PcgOptions& options, const Progress& progress) {
+DistributedGreen greensFunctionPetsc(const Ranks& ranks, const DistributedBand& d, const Vec3d& source, const PcgOptions& options,
+                                     const Progress& progress) {
     DistributedGreen g;
     together(ranks, [&] {
         if (options.preconditioner == Preconditioner::IncompleteCholesky)
-            throw ParameterError("the incomplete Cholesky preconditioner (PcgOptions::preconditioner) has no distributed "
-                                 "form: use multigrid or jacobi",
-                                 {"PcgOptions::preconditioner"});
+            throw ParameterError(
+                "the incomplete Cholesky preconditioner (PcgOptions::preconditioner) has no distributed "
+                "form: use multigrid or jacobi",
+                {"PcgOptions::preconditioner"});
         if (!(options.tolerance > 0) || options.maxIterations < 1)
-            throw ParameterError("the PCG needs a tolerance (PcgOptions::tolerance) > 0 and an iteration cap "
-                                 "(PcgOptions::maxIterations) >= 1",
-                                 {"PcgOptions::tolerance", "PcgOptions::maxIterations"});
+            throw ParameterError(
+                "the PCG needs a tolerance (PcgOptions::tolerance) > 0 and an iteration cap "
+                "(PcgOptions::maxIterations) >= 1",
+                {"PcgOptions::tolerance", "PcgOptions::maxIterations"});
     });
     g.preconditioner = options.preconditioner == Preconditioner::Automatic
                            ? (d.globalSize >= kMultigridMinUnknowns ? Preconditioner::Multigrid : Preconditioner::Jacobi)
@@ -109,15 +111,14 @@ DistributedGreen greensFunctionPetsc(const Ranks& ranks, const DistributedBand& 
         const BoomerAmgOptions& amg = options.multigrid;
         const std::string theta = std::to_string(amg.strongThreshold), pmax = std::to_string(amg.maxInterpolationEntries),
                           aggressive = std::to_string(amg.aggressiveLevels);
-        const std::pair<const char*, std::string> defaults[] = {
-            {"-green_pc_hypre_boomeramg_coarsen_type", "HMIS"},
-            {"-green_pc_hypre_boomeramg_interp_type", "ext+i"},
-            {"-green_pc_hypre_boomeramg_P_max", pmax},
-            {"-green_pc_hypre_boomeramg_strong_threshold", theta},
-            {"-green_pc_hypre_boomeramg_agg_nl", aggressive},
-            {"-green_pc_hypre_boomeramg_relax_type_down", "l1-Gauss-Seidel"},
-            {"-green_pc_hypre_boomeramg_relax_type_up", "backward-l1-Gauss-Seidel"},
-            {"-green_pc_hypre_boomeramg_relax_type_coarse", "Gaussian-elimination"}};
+        const std::pair<const char*, std::string> defaults[] = {{"-green_pc_hypre_boomeramg_coarsen_type", "HMIS"},
+                                                                {"-green_pc_hypre_boomeramg_interp_type", "ext+i"},
+                                                                {"-green_pc_hypre_boomeramg_P_max", pmax},
+                                                                {"-green_pc_hypre_boomeramg_strong_threshold", theta},
+                                                                {"-green_pc_hypre_boomeramg_agg_nl", aggressive},
+                                                                {"-green_pc_hypre_boomeramg_relax_type_down", "l1-Gauss-Seidel"},
+                                                                {"-green_pc_hypre_boomeramg_relax_type_up", "backward-l1-Gauss-Seidel"},
+                                                                {"-green_pc_hypre_boomeramg_relax_type_coarse", "Gaussian-elimination"}};
         for (const auto& [name, value] : defaults) {
             PetscBool set = PETSC_FALSE;
             checkPetsc(PetscOptionsHasName(nullptr, nullptr, name, &set), "PetscOptionsHasName");

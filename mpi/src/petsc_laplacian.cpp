@@ -104,8 +104,9 @@ PetscLaplacian assembleLaplacianPetsc(const Ranks& ranks, const DistributedBand&
     const Band& band = d.local;
     const std::size_t n = band.size();
     if (d.globalSize >= std::size_t(PETSC_MAX_INT))
-        throw Error("the band has more voxels than this PETSc's 32-bit indices can number (2^31): build PETSc with "
-                    "--with-64-bit-indices, or use a coarser voxel size");
+        throw Error(
+            "the band has more voxels than this PETSc's 32-bit indices can number (2^31): build PETSc with "
+            "--with-64-bit-indices, or use a coarser voxel size");
     const std::vector<std::int64_t> nb = globalStencilNeighbours(ranks, d);
     const double halfH = 0.5 * band.voxelSize;
 
@@ -184,8 +185,8 @@ PetscLaplacian assembleLaplacianPetsc(const Ranks& ranks, const DistributedBand&
     }
 
     Mat L = nullptr;
-    checkPetsc(MatCreateMPIAIJWithArrays(ranks.comm, PetscInt(n), PetscInt(n), PetscInt(d.globalSize),
-                                         PetscInt(d.globalSize), rowStart.data(), column.data(), value.data(), &L),
+    checkPetsc(MatCreateMPIAIJWithArrays(ranks.comm, PetscInt(n), PetscInt(n), PetscInt(d.globalSize), PetscInt(d.globalSize),
+                                         rowStart.data(), column.data(), value.data(), &L),
                "MatCreateMPIAIJWithArrays");
     PetscLaplacian out;
     out.L = PetscMatrix(L);

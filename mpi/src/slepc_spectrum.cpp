@@ -37,16 +37,16 @@ struct Extreme {
 
 }  // namespace
 
-DistributedSpectrum spectrumSlepc(const Ranks& ranks, const DistributedBand& d, const EigenOptions& options,
-                                  const Progress& progress) {
+DistributedSpectrum spectrumSlepc(const Ranks& ranks, const DistributedBand& d, const EigenOptions& options, const Progress& progress) {
     const Band& band = d.local;
     const std::size_t n = band.size();
     together(ranks, [&] {
         if (options.count < 1 || std::size_t(options.count) >= d.globalSize)
-            throw ParameterError("the eigenpair count k (EigenOptions::count) must be in [1, N) with N = " +
-                                     std::to_string(d.globalSize) + " band voxels",
-                                 {"EigenOptions::count"});
-        if (!(options.tolerance > 0)) throw ParameterError("the eigen tolerance (EigenOptions::tolerance) must be > 0", {"EigenOptions::tolerance"});
+            throw ParameterError(
+                "the eigenpair count k (EigenOptions::count) must be in [1, N) with N = " + std::to_string(d.globalSize) + " band voxels",
+                {"EigenOptions::count"});
+        if (!(options.tolerance > 0))
+            throw ParameterError("the eigen tolerance (EigenOptions::tolerance) must be > 0", {"EigenOptions::tolerance"});
     });
     DistributedSpectrum s;
     s.method = options.method == EigenMethod::Automatic
@@ -58,13 +58,12 @@ DistributedSpectrum spectrumSlepc(const Ranks& ranks, const DistributedBand& d, 
     const PetscLaplacian L = assembleLaplacianPetsc(ranks, d);
     s.ghosts = L.ghosts;
     Objects o;
-    checkPetsc(MatCreateAIJ(ranks.comm, PetscInt(n), PetscInt(n), PetscInt(d.globalSize), PetscInt(d.globalSize), 1,
-                            nullptr, 0, nullptr, &o.M),
-               "MatCreateAIJ");
+    checkPetsc(
+        MatCreateAIJ(ranks.comm, PetscInt(n), PetscInt(n), PetscInt(d.globalSize), PetscInt(d.globalSize), 1, nullptr, 0, nullptr, &o.M),
+        "MatCreateAIJ");
     const double h3 = band.voxelSize * band.voxelSize * band.voxelSize;
     for (std::size_t i = 0; i < n; ++i)
-        checkPetsc(MatSetValue(o.M, PetscInt(d.offset + i), PetscInt(d.offset + i), h3 * double(band.mu[i]), INSERT_VALUES),
-                   "MatSetValue");
+        checkPetsc(MatSetValue(o.M, PetscInt(d.offset + i), PetscInt(d.offset + i), h3 * double(band.mu[i]), INSERT_VALUES), "MatSetValue");
     checkPetsc(MatAssemblyBegin(o.M, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
     checkPetsc(MatAssemblyEnd(o.M, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
     s.assembleSeconds = since(t);
@@ -102,13 +101,15 @@ DistributedSpectrum spectrumSlepc(const Ranks& ranks, const DistributedBand& d, 
         checkPetsc(PCSetType(pc, PCCHOLESKY), "PCSetType");
         checkPetsc(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
     }
-    checkPetsc(EPSSetStoppingTestFunction(o.eps, [](EPS eps, PetscInt its, PetscInt max_it, PetscInt nconv, PetscInt nev,
-                                                    EPSConvergedReason* reason, void* context) -> PetscErrorCode {
-                                              const auto* p = static_cast<const Progress*>(context);
-                                              if (p->interrupted && p->interrupted()) return PETSC_ERR_USER;
-                                              return EPSStoppingBasic(eps, its, max_it, nconv, nev, reason, nullptr);
-                                          },
-                                          const_cast<Progress*>(&progress), nullptr),
+    checkPetsc(EPSSetStoppingTestFunction(
+                   o.eps,
+                   [](EPS eps, PetscInt its, PetscInt max_it, PetscInt nconv, PetscInt nev, EPSConvergedReason* reason,
+                      void* context) -> PetscErrorCode {
+                       const auto* p = static_cast<const Progress*>(context);
+                       if (p->interrupted && p->interrupted()) return PETSC_ERR_USER;
+                       return EPSStoppingBasic(eps, its, max_it, nconv, nev, reason, nullptr);
+                   },
+                   const_cast<Progress*>(&progress), nullptr),
                "EPSSetStoppingTestFunction");
     checkPetsc(EPSSetFromOptions(o.eps), "EPSSetFromOptions");
     const PetscErrorCode solved = EPSSolve(o.eps);
@@ -121,10 +122,10 @@ DistributedSpectrum spectrumSlepc(const Ranks& ranks, const DistributedBand& d, 
     s.solveSeconds = since(t);
     together(ranks, [&] {
         if (converged < options.count)
-            throw Error("SLEPc found " + std::to_string(converged) + " of the " + std::to_string(options.count) +
-                        " eigenpairs within " + std::to_string(options.maxRestarts) +
-                        " iterations: raise the iteration cap (EigenOptions::maxRestarts) or loosen the tolerance "
-                        "(EigenOptions::tolerance)",
+            throw Error("SLEPc found " + std::to_string(converged) + " of the " + std::to_string(options.count) + " eigenpairs within " +
+                            std::to_string(options.maxRestarts) +
+                            " iterations: raise the iteration cap (EigenOptions::maxRestarts) or loosen the tolerance "
+                            "(EigenOptions::tolerance)",
                         {"EigenOptions::maxRestarts", "EigenOptions::tolerance"});
     });
 

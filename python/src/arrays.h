@@ -52,8 +52,8 @@ inline std::vector<Vec3d> points3(py::handle obj, const char* name, bool single 
     const auto a = realArray(obj, name);
     const bool flat = single && a.ndim() == 1 && a.shape(0) == 3;
     if (!flat && !(a.ndim() == 2 && a.shape(1) == 3))
-        throw InputError(std::string(name) + " must be an n x 3 array" + (single ? " (or one point x, y, z)" : "") +
-                         ", got shape " + shapeText(a));
+        throw InputError(std::string(name) + " must be an n x 3 array" + (single ? " (or one point x, y, z)" : "") + ", got shape " +
+                         shapeText(a));
     const std::size_t n = flat ? 1 : std::size_t(a.shape(0));
     if (n < minRows)
         throw InputError(std::string(name) + " needs at least " + std::to_string(minRows) + (minRows == 1 ? " point" : " points") +
@@ -62,8 +62,7 @@ inline std::vector<Vec3d> points3(py::handle obj, const char* name, bool single 
     std::vector<Vec3d> out(n);
     for (std::size_t i = 0; i < n; ++i) {
         out[i] = Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-        if (!out[i].allFinite())
-            throw InputError(std::string(name) + "[" + std::to_string(i) + "] is not finite (NaN or infinity)");
+        if (!out[i].allFinite()) throw InputError(std::string(name) + "[" + std::to_string(i) + "] is not finite (NaN or infinity)");
     }
     return out;
 }
@@ -89,11 +88,13 @@ inline std::vector<float> channel(py::handle obj, const char* name, std::size_t 
                                     : (a.ndim() == 2 && std::size_t(a.shape(0)) == n && a.shape(1) == components);
     if (!ok)
         throw InputError(std::string(name) + " must have shape (" + std::to_string(n) +
-                         (components == 1 ? ",)" : ", " + std::to_string(components) + ")") + " (one row per band voxel), got " + shapeText(a));
+                         (components == 1 ? ",)" : ", " + std::to_string(components) + ")") + " (one row per band voxel), got " +
+                         shapeText(a));
     std::vector<float> out(n * std::size_t(components));
     for (std::size_t i = 0; i < out.size(); ++i) {
         if (!std::isfinite(a.data()[i]))
-            throw InputError(std::string(name) + ": value " + std::to_string(i / std::size_t(components)) + " is not finite (NaN or infinity)");
+            throw InputError(std::string(name) + ": value " + std::to_string(i / std::size_t(components)) +
+                             " is not finite (NaN or infinity)");
         out[i] = float(a.data()[i]);
     }
     return out;

@@ -17,8 +17,8 @@
 #include "gpisvdb/app/band_metadata.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/output/temporary_path.h"
-#include "gpisvdb/tasks/green.h"
 #include "gpisvdb/output/write_vdb.h"
+#include "gpisvdb/tasks/green.h"
 #include "work.h"
 
 using namespace pybind11::literals;
@@ -27,9 +27,9 @@ namespace gpisvdb::python {
 
 namespace {
 
-PyBand makeBand(const Model& m, std::optional<double> voxelSize, std::optional<double> resolutionScale,
-                std::optional<double> maxVoxels, const std::string& voxelValues, std::optional<double> iso, double eta,
-                int qmc, double maxAnisotropy, std::optional<double> maxMemory, int threads, py::object progress) {
+PyBand makeBand(const Model& m, std::optional<double> voxelSize, std::optional<double> resolutionScale, std::optional<double> maxVoxels,
+                const std::string& voxelValues, std::optional<double> iso, double eta, int qmc, double maxAnisotropy,
+                std::optional<double> maxMemory, int threads, py::object progress) {
     PyBand b;
     b.model = m.loaded;
     b.modelOptions = m.options;
@@ -91,9 +91,8 @@ py::dict bandReport(const PyBand& b) {
         "resolution_scale"_a = b.requested.resolutionScale, "qmc_samples"_a = b.built.options.qmcSamples,
         "voxel_values"_a = b.built.options.voxelValues ? "voxel" : "point", "max_band_voxels"_a = b.built.maxBandVoxels,
         "voxel_size_by_budget"_a = b.built.budgeted, "accuracy_voxel_size"_a = b.built.accuracyVoxelSize,
-        "accuracy_voxels"_a = b.built.accuracyVoxels, "voxel_size_note"_a = voxelSizeNote(b.built),
-        "beta"_a = mo.barnesHut.beta, "exact"_a = mo.exact, "max_anisotropy"_a = b.built.options.maxAnisotropy,
-        "max_memory_bytes"_a = b.built.maxMemory);
+        "accuracy_voxels"_a = b.built.accuracyVoxels, "voxel_size_note"_a = voxelSizeNote(b.built), "beta"_a = mo.barnesHut.beta,
+        "exact"_a = mo.exact, "max_anisotropy"_a = b.built.options.maxAnisotropy, "max_memory_bytes"_a = b.built.maxMemory);
     py::dict stages("model"_a = st.modelSeconds, "kac_rice"_a = st.kacRiceSeconds, "search"_a = st.searchSeconds,
                     "finish"_a = st.finishSeconds);
     py::dict bandInfo("voxels"_a = band.size(), "voxel_size"_a = band.voxelSize,
@@ -101,16 +100,14 @@ py::dict bandReport(const PyBand& b) {
                       "bbox_min"_a = py::make_tuple(bb.min().x(), bb.min().y(), bb.min().z()), "mass"_a = band.mass(),
                       "max_stencil_l1"_a = st.maxStencilL1, "max_stencil_l1_at_samples"_a = b.built.resolution.maxStencilL1,
                       "evaluated_voxels"_a = st.evaluated, "bfs_levels"_a = st.levels, "regularised_voxels"_a = st.regularised,
-                      "median_mu_at_samples"_a = st.medianSampleMu, "stage_seconds"_a = stages,
-                      "bytes_per_voxel"_a = band.bytesPerVoxel());
-    return py::dict("input"_a = input, "parameters"_a = parameters, "band"_a = bandInfo,
-                    "timings_s"_a = py::dict("band"_a = b.seconds));
+                      "median_mu_at_samples"_a = st.medianSampleMu, "stage_seconds"_a = stages, "bytes_per_voxel"_a = band.bytesPerVoxel());
+    return py::dict("input"_a = input, "parameters"_a = parameters, "band"_a = bandInfo, "timings_s"_a = py::dict("band"_a = b.seconds));
 }
 
 /// File metadata, as the command line writes it (app/band_metadata.h); `mesh` reads 'iso'.
 openvdb::MetaMap bandMetadata(const PyBand& b, const VdbWriteOptions& vdb) {
-    return app::bandMetadata({"python: gpisvdb.band", b.source, ""}, b.modelOptions, *b.model, b.built.options,
-                             b.built.resolution, b.built.budgeted, b.built.result, vdb);
+    return app::bandMetadata({"python: gpisvdb.band", b.source, ""}, b.modelOptions, *b.model, b.built.options, b.built.resolution,
+                             b.built.budgeted, b.built.result, vdb);
 }
 
 /// Writes under a temporary name beside `path` and renames it into place, so that an error or a Ctrl-C leaves
@@ -164,7 +161,8 @@ void writeBand(const PyBand& b, const std::string& path, bool half, bool stencil
     vo.occupancyName = fogName;
     vo.nanoVdb = nanovdb || isNanoVdbPath(path);
     const openvdb::MetaMap meta = bandMetadata(b, vo);
-    writeAtomically(path, [&](const std::string& temp) { writeBandVdb(b.band(), temp, meta, extra, vec, vo); }, threads);
+    writeAtomically(
+        path, [&](const std::string& temp) { writeBandVdb(b.band(), temp, meta, extra, vec, vo); }, threads);
 }
 
 }  // namespace
@@ -178,54 +176,80 @@ views on the band (no copy):
   mu, mean, stddev (N,) float32;  T (N, 6) float32 as (xx, yy, zz, xy, xz, yz);  normal (N, 3) float32;
   stencil_width (N,) uint8 (max |e|_1 of the Selling stencil).
 Tasks: green, geodesic, spectrum, regress, hodge, smoothed_distance, mean_surface; output: write_vdb.)doc");
-    band
-        .def("__len__", [](const PyBand& b) { return b.band().size(); })
-        .def_property_readonly("size", [](const PyBand& b) { return b.band().size(); }, "number of voxels N")
-        .def_property_readonly("voxel_size", [](const PyBand& b) { return b.band().voxelSize; }, "h, world units")
-        .def_property_readonly("iso", [](const PyBand& b) { return b.built.options.iso; }, "the iso-value u the band was built at")
-        .def_property_readonly("mass", [](const PyBand& b) { return b.band().mass(); },
-                               "sum of mu h^3: the expected area of the surface, world units^2")
+    band.def("__len__", [](const PyBand& b) { return b.band().size(); })
+        .def_property_readonly(
+            "size", [](const PyBand& b) { return b.band().size(); }, "number of voxels N")
+        .def_property_readonly(
+            "voxel_size", [](const PyBand& b) { return b.band().voxelSize; }, "h, world units")
+        .def_property_readonly(
+            "iso", [](const PyBand& b) { return b.built.options.iso; }, "the iso-value u the band was built at")
+        .def_property_readonly(
+            "mass", [](const PyBand& b) { return b.band().mass(); }, "sum of mu h^3: the expected area of the surface, world units^2")
         .def_property_readonly("report", &bandReport, "input, parameters (relative and absolute), band statistics, timings (a new dict)")
-        .def_property_readonly("coords", [](py::object self) {
-            const Band& b = self.cast<const PyBand&>().band();
-            return view<std::int32_t>(reinterpret_cast<const std::int32_t*>(b.coord.data()), {py::ssize_t(b.size()), 3},
-                                      {py::ssize_t(sizeof(openvdb::Coord)), 4}, self);
-        }, "(N, 3) int32 index coordinates k; the voxel centre is voxel_size * k")
-        .def_property_readonly("world", [](const PyBand& pb) {
-            const Band& b = pb.band();
-            py::array_t<double> w({py::ssize_t(b.size()), py::ssize_t(3)});
-            for (std::size_t i = 0; i < b.size(); ++i)
-                for (int d = 0; d < 3; ++d) w.mutable_data()[3 * i + std::size_t(d)] = b.voxelSize * b.coord[i][d];
-            return w;
-        }, "(N, 3) float64 voxel centres, world units")
-        .def_property_readonly("mu", [](py::object self) {
-            const Band& b = self.cast<const PyBand&>().band();
-            return view<float>(b.mu.data(), {py::ssize_t(b.size())}, {4}, self);
-        }, "(N,) float32 surface density mu, world units^-1")
-        .def_property_readonly("mean", [](py::object self) {
-            const Band& b = self.cast<const PyBand&>().band();
-            return view<float>(b.mean.data(), {py::ssize_t(b.size())}, {4}, self);
-        }, "(N,) float32 gamma = E[phi]")
-        .def_property_readonly("stddev", [](py::object self) {
-            const Band& b = self.cast<const PyBand&>().band();
-            return view<float>(b.stddev.data(), {py::ssize_t(b.size())}, {4}, self);
-        }, "(N,) float32 std of phi")
-        .def_property_readonly("T", [](py::object self) {
-            const Band& b = self.cast<const PyBand&>().band();
-            return view<float>(b.T.empty() ? nullptr : b.T.front().data(), {py::ssize_t(b.size()), 6}, {24, 4}, self);
-        }, "(N, 6) float32 tangent tensor T as (xx, yy, zz, xy, xz, yz), world units^-1")
-        .def_property_readonly("normal", [](py::object self) {
-            const Band& b = self.cast<const PyBand&>().band();
-            return view<float>(b.normal.empty() ? nullptr : b.normal.front().asPointer(), {py::ssize_t(b.size()), 3}, {12, 4}, self);
-        }, "(N, 3) float32 outward unit normal")
-        .def_property_readonly("stencil_width", [](py::object self) {
-            const Band& b = self.cast<const PyBand&>().band();
-            const std::uint8_t* p = b.stencil.empty() ? nullptr : &b.stencil.front().width;
-            return view<std::uint8_t>(p, {py::ssize_t(b.size())}, {py::ssize_t(sizeof(VoxelStencil))}, self);
-        }, "(N,) uint8 max |e|_1 over the voxel's Selling stencil")
-        .def("nearest", [](const PyBand& b, py::handle point) {
-            return nearestBandVoxel(b.band(), points3(point, "point", true).front());
-        }, "point"_a, "Linear index of the band voxel nearest a world point (x, y, z).")
+        .def_property_readonly(
+            "coords",
+            [](py::object self) {
+                const Band& b = self.cast<const PyBand&>().band();
+                return view<std::int32_t>(reinterpret_cast<const std::int32_t*>(b.coord.data()), {py::ssize_t(b.size()), 3},
+                                          {py::ssize_t(sizeof(openvdb::Coord)), 4}, self);
+            },
+            "(N, 3) int32 index coordinates k; the voxel centre is voxel_size * k")
+        .def_property_readonly(
+            "world",
+            [](const PyBand& pb) {
+                const Band& b = pb.band();
+                py::array_t<double> w({py::ssize_t(b.size()), py::ssize_t(3)});
+                for (std::size_t i = 0; i < b.size(); ++i)
+                    for (int d = 0; d < 3; ++d) w.mutable_data()[3 * i + std::size_t(d)] = b.voxelSize * b.coord[i][d];
+                return w;
+            },
+            "(N, 3) float64 voxel centres, world units")
+        .def_property_readonly(
+            "mu",
+            [](py::object self) {
+                const Band& b = self.cast<const PyBand&>().band();
+                return view<float>(b.mu.data(), {py::ssize_t(b.size())}, {4}, self);
+            },
+            "(N,) float32 surface density mu, world units^-1")
+        .def_property_readonly(
+            "mean",
+            [](py::object self) {
+                const Band& b = self.cast<const PyBand&>().band();
+                return view<float>(b.mean.data(), {py::ssize_t(b.size())}, {4}, self);
+            },
+            "(N,) float32 gamma = E[phi]")
+        .def_property_readonly(
+            "stddev",
+            [](py::object self) {
+                const Band& b = self.cast<const PyBand&>().band();
+                return view<float>(b.stddev.data(), {py::ssize_t(b.size())}, {4}, self);
+            },
+            "(N,) float32 std of phi")
+        .def_property_readonly(
+            "T",
+            [](py::object self) {
+                const Band& b = self.cast<const PyBand&>().band();
+                return view<float>(b.T.empty() ? nullptr : b.T.front().data(), {py::ssize_t(b.size()), 6}, {24, 4}, self);
+            },
+            "(N, 6) float32 tangent tensor T as (xx, yy, zz, xy, xz, yz), world units^-1")
+        .def_property_readonly(
+            "normal",
+            [](py::object self) {
+                const Band& b = self.cast<const PyBand&>().band();
+                return view<float>(b.normal.empty() ? nullptr : b.normal.front().asPointer(), {py::ssize_t(b.size()), 3}, {12, 4}, self);
+            },
+            "(N, 3) float32 outward unit normal")
+        .def_property_readonly(
+            "stencil_width",
+            [](py::object self) {
+                const Band& b = self.cast<const PyBand&>().band();
+                const std::uint8_t* p = b.stencil.empty() ? nullptr : &b.stencil.front().width;
+                return view<std::uint8_t>(p, {py::ssize_t(b.size())}, {py::ssize_t(sizeof(VoxelStencil))}, self);
+            },
+            "(N,) uint8 max |e|_1 over the voxel's Selling stencil")
+        .def(
+            "nearest", [](const PyBand& b, py::handle point) { return nearestBandVoxel(b.band(), points3(point, "point", true).front()); },
+            "point"_a, "Linear index of the band voxel nearest a world point (x, y, z).")
         .def("write_vdb", &writeBand, "path"_a, py::kw_only(), "half"_a = false, "stencils"_a = false, "channels"_a = py::none(),
              "vectors"_a = py::none(), "fog_name"_a = VdbWriteOptions{}.occupancyName, "nanovdb"_a = false, "threads"_a = 0,
              R"doc(Writes the band as an OpenVDB file, as `gpisvdb band` does (docs/band.md, "The .vdb file").
@@ -238,14 +262,14 @@ stencils (selling_weight_0..5, selling_offset_0..5); then `channels` (dict name 
 Written under a temporary name and renamed: an error or Ctrl-C leaves no file. Raises OutputError.)doc");
     bindBandTasks(band);
     band.def("__repr__", [](const PyBand& b) {
-            return "<gpisvdb.Band " + std::to_string(b.band().size()) + " voxels of size " + numberText(b.band().voxelSize) +
-                   ", mass " + numberText(b.band().mass()) + ">";
-        });
+        return "<gpisvdb.Band " + std::to_string(b.band().size()) + " voxels of size " + numberText(b.band().voxelSize) + ", mass " +
+               numberText(b.band().mass()) + ">";
+    });
 
     m.def("band", &makeBand, "model"_a, py::kw_only(), "voxel_size"_a = py::none(), "resolution_scale"_a = py::none(),
-          "max_voxels"_a = py::none(), "voxel_values"_a = "point", "iso"_a = py::none(),
-          "eta"_a = BandOptions{}.etaRelative, "qmc"_a = BandOptions{}.qmcSamples, "max_anisotropy"_a = BandOptions{}.maxAnisotropy,
-          "max_memory"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
+          "max_voxels"_a = py::none(), "voxel_values"_a = "point", "iso"_a = py::none(), "eta"_a = BandOptions{}.etaRelative,
+          "qmc"_a = BandOptions{}.qmcSamples, "max_anisotropy"_a = BandOptions{}.maxAnisotropy, "max_memory"_a = py::none(),
+          "threads"_a = 0, "progress"_a = py::none(),
           R"doc(The narrow band of the GPIS with mu, T and the Selling stencils, as `gpisvdb band` builds it (docs/band.md).
 
   voxel_size        h in world units (None: min(h*, 1.25 w_mu), h* = l / max stencil width, w_mu mu's width)

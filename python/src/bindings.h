@@ -27,7 +27,6 @@ struct Model {
     std::string source;  ///< the file, or "numpy"
 };
 
-
 struct PyBand {
     std::shared_ptr<const LoadedModel> model;
     ModelOptions modelOptions;

@@ -26,9 +26,8 @@ namespace gpisvdb::python {
 
 namespace {
 
-ModelOptions modelOptions(double sigma, double smoothing, double noiseSmoothing, double beta, bool exact,
-                          const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset,
-                          double labelNoise) {
+ModelOptions modelOptions(double sigma, double smoothing, double noiseSmoothing, double beta, bool exact, const std::string& model,
+                          py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise) {
     ModelOptions o;
     o.sigmaRel = sigma;
     o.smoothingRel = smoothing;
@@ -88,7 +87,8 @@ InputData soupInput(py::handle V, py::handle F) {
     if (!(f.ndim() == 2 && f.shape(1) == 3 && f.shape(0) >= 1))
         throw InputError("F must be an m x 3 array of vertex indices (triangles), got shape " + shapeText(f));
     if (std::size_t(f.shape(0)) > kMaxInputSamples)
-        throw InputError("F has " + std::to_string(f.shape(0)) + " triangles, more than the " + std::to_string(kMaxInputSamples) + " an input may hold");
+        throw InputError("F has " + std::to_string(f.shape(0)) + " triangles, more than the " + std::to_string(kMaxInputSamples) +
+                         " an input may hold");
     const auto idx = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(f);
     const long long nv = (long long)soup.vertices.size();
     soup.triangles.resize(std::size_t(f.shape(0)));
@@ -148,8 +148,8 @@ py::dict evaluateModel(const Model& m, py::handle points, std::optional<double> 
     const py::ssize_t n = py::ssize_t(xs.size());
     py::array_t<double> mean(n), grad({n, py::ssize_t(3)}), cov({n, py::ssize_t(4), py::ssize_t(4)}), mu(n),
         T({n, py::ssize_t(3), py::ssize_t(3)}), inside(n);
-    double *pm = mean.mutable_data(), *pg = grad.mutable_data(), *pc = cov.mutable_data(), *pmu = mu.mutable_data(),
-           *pT = T.mutable_data(), *pin = inside.mutable_data();
+    double *pm = mean.mutable_data(), *pg = grad.mutable_data(), *pc = cov.mutable_data(), *pmu = mu.mutable_data(), *pT = T.mutable_data(),
+           *pin = inside.mutable_data();
     Work work(threads, std::move(progress));
     work([&](const Progress& progress) {
         const QmcRule rule(qmc);
@@ -169,8 +169,7 @@ py::dict evaluateModel(const Model& m, py::handle points, std::optional<double> 
         }
         return 0;
     });
-    return py::dict("mean"_a = mean, "gradient"_a = grad, "covariance"_a = cov, "mu"_a = mu, "T"_a = T,
-                    "p_inside"_a = inside);
+    return py::dict("mean"_a = mean, "gradient"_a = grad, "covariance"_a = cov, "mu"_a = mu, "T"_a = T, "p_inside"_a = inside);
 }
 
 py::dict queryRaysTask(const Model& m, py::handle origins, py::handle directions, py::handle lengths, std::optional<double> step,
@@ -244,30 +243,33 @@ Example:
   >>> model = gpisvdb.Model(V, F, sigma=0.25)
   >>> model.evaluate(np.zeros((1, 3)))['mu']
 )doc")
-        .def(py::init([](py::handle V, py::handle F, double sigma, double smoothing, double noiseSmoothing, double beta, bool exact, const std::string& model,
-                         py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise, int threads) {
-                 const ModelOptions o = modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+        .def(py::init([](py::handle V, py::handle F, double sigma, double smoothing, double noiseSmoothing, double beta, bool exact,
+                         const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise,
+                         int threads) {
+                 const ModelOptions o =
+                     modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
                  return makeModel(soupInput(V, F), o, threads);
              }),
-             "V"_a, "F"_a, py::kw_only(), "sigma"_a = kDefaultSigmaRel, "smoothing"_a = kDefaultSmoothingRel, "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
-             "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
-             "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
-             "threads"_a = 0)
+             "V"_a, "F"_a, py::kw_only(), "sigma"_a = kDefaultSigmaRel, "smoothing"_a = kDefaultSmoothingRel,
+             "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding",
+             "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
+             "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0)
         .def_static(
             "from_cloud",
-            [](py::handle P, py::handle N, py::object sigma, py::object area, double smoothing, double noiseSmoothing, double beta, bool exact,
-               const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise,
-               int threads) {
+            [](py::handle P, py::handle N, py::object sigma, py::object area, double smoothing, double noiseSmoothing, double beta,
+               bool exact, const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset,
+               double labelNoise, int threads) {
                 double rel;
                 py::object perPoint;
                 splitCloudSigma(sigma, rel, perPoint);
-                const ModelOptions o = modelOptions(rel, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                const ModelOptions o =
+                    modelOptions(rel, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
                 return makeModel(cloudInput(P, N, perPoint, area), o, threads);
             },
-            "P"_a, "N"_a, py::kw_only(), "sigma"_a = py::none(), "area"_a = py::none(), "smoothing"_a = kDefaultSmoothingRel, "noise_smoothing"_a = kNoiseSmoothing,
-            "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding", "labels"_a = py::none(),
-            "training_points"_a = TrainingOptions{}.surfacePoints, "training_offset"_a = TrainingOptions{}.offsetRelative,
-            "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0,
+            "P"_a, "N"_a, py::kw_only(), "sigma"_a = py::none(), "area"_a = py::none(), "smoothing"_a = kDefaultSmoothingRel,
+            "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding",
+            "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
+            "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0,
             R"doc(A model of an oriented point cloud with per-point uncertainty (docs/model.md).
 
 P: n x 3 positions (world units), N: n x 3 outward normals (any length > 0; normalised).
@@ -277,9 +279,11 @@ area:  None (estimated from the spacing) or n areas per point (world units^2).
 The other keywords as for Model(V, F, ...).)doc")
         .def_static(
             "from_file",
-            [](const std::string& path, double sigma, double smoothing, double noiseSmoothing, double beta, bool exact, const std::string& model,
-               py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise, int threads) {
-                const ModelOptions o = modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+            [](const std::string& path, double sigma, double smoothing, double noiseSmoothing, double beta, bool exact,
+               const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise,
+               int threads) {
+                const ModelOptions o =
+                    modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
                 InputData data;
                 {
                     py::gil_scoped_release release;
@@ -287,10 +291,10 @@ The other keywords as for Model(V, F, ...).)doc")
                 }
                 return makeModel(std::move(data), o, threads);
             },
-            "path"_a, py::kw_only(), "sigma"_a = kDefaultSigmaRel, "smoothing"_a = kDefaultSmoothingRel, "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
-            "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
-            "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise,
-            "threads"_a = 0,
+            "path"_a, py::kw_only(), "sigma"_a = kDefaultSigmaRel, "smoothing"_a = kDefaultSmoothingRel,
+            "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding",
+            "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
+            "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0,
             R"doc(A model of a file: a triangle soup (.obj .off .ply .stl .vtp), an oriented cloud (.xyz .ply .vtp) or Gaussian dipoles (.gdp), as the
 command line reads it. Keywords as for Model(V, F, ...); a cloud's per-point sigma column is used where present.)doc")
         .def("evaluate", &evaluateModel, "points"_a, py::kw_only(), "iso"_a = py::none(), "qmc"_a = 512, "threads"_a = 0,
@@ -307,20 +311,25 @@ Returns a dict of float64 arrays:
   T           (n, 3, 3)  tangent tensor, world units^-1 (trace 2 mu)
   p_inside    (n,)       P(phi > u), the probability of being inside
 The same numbers as `gpisvdb evaluate`'s CSV.)doc")
-        .def_property_readonly("length_scale", [](const Model& m) { return m.loaded->input.samples.lengthScale; },
-                               "l: mean edge length (soup) or sqrt(area / points) (cloud), world units")
-        .def_property_readonly("sigma", [](const Model& m) { return m.loaded->input.sigma; }, "absolute noise std sigma, world units")
-        .def_property_readonly("smoothing", [](const Model& m) { return m.loaded->smoothing; }, "absolute kernel smoothing s, world units")
-        .def_property_readonly("samples", [](const Model& m) { return m.loaded->input.samples.size(); },
-                               "samples: triangles (soup) or points (cloud) used")
-        .def_property_readonly("skipped", [](const Model& m) { return m.loaded->input.degenerateSkipped; },
-                               "zero-area triangles left out")
+        .def_property_readonly(
+            "length_scale", [](const Model& m) { return m.loaded->input.samples.lengthScale; },
+            "l: mean edge length (soup) or sqrt(area / points) (cloud), world units")
+        .def_property_readonly(
+            "sigma", [](const Model& m) { return m.loaded->input.sigma; }, "absolute noise std sigma, world units")
+        .def_property_readonly(
+            "smoothing", [](const Model& m) { return m.loaded->smoothing; }, "absolute kernel smoothing s, world units")
+        .def_property_readonly(
+            "samples", [](const Model& m) { return m.loaded->input.samples.size(); }, "samples: triangles (soup) or points (cloud) used")
+        .def_property_readonly(
+            "skipped", [](const Model& m) { return m.loaded->input.degenerateSkipped; }, "zero-area triangles left out")
         .def_property_readonly("is_soup", [](const Model& m) { return m.loaded->input.isSoup; })
-        .def_property_readonly("normals_flipped", [](const Model& m) { return m.loaded->input.normalsFlipped; },
-                               "the input's normals pointed inward and were flipped (docs/math.md#orientation)")
+        .def_property_readonly(
+            "normals_flipped", [](const Model& m) { return m.loaded->input.normalsFlipped; },
+            "the input's normals pointed inward and were flipped (docs/math.md#orientation)")
         .def_property_readonly("kind", [](const Model& m) { return m.options.kind == ModelKind::Regression ? "regression" : "winding"; })
-        .def_property_readonly("iso", [](const Model& m) { return m.loaded->model->naturalIso(); },
-                               "the model's own surface level u (0.5 winding, 0 regression)")
+        .def_property_readonly(
+            "iso", [](const Model& m) { return m.loaded->model->naturalIso(); },
+            "the model's own surface level u (0.5 winding, 0 regression)")
         .def("query_rays", &queryRaysTask, "origins"_a, "directions"_a, "lengths"_a, py::kw_only(), "step"_a = py::none(),
              "iso"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
              R"doc(Where rays first enter the inside phi > u, as `gpisvdb query --rays` (docs/uncertainty.md#ray-queries).

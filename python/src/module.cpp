@@ -51,12 +51,10 @@ void bindErrors(py::module_& m) {
     // gpisvdb.Error is a RuntimeError; parameter and input errors are also ValueErrors.
     gError = PyErr_NewExceptionWithDoc("gpisvdb.Error", "Base of every error gpisvdb reports.", PyExc_RuntimeError, nullptr);
     py::tuple inputBases = py::make_tuple(py::handle(gError), py::handle(PyExc_ValueError));
-    gInputError = PyErr_NewExceptionWithDoc("gpisvdb.InputError",
-                                            "The input (a file or an array) is missing, malformed or holds unusable data.",
-                                            inputBases.ptr(), nullptr);
-    gParameterError = PyErr_NewExceptionWithDoc("gpisvdb.ParameterError",
-                                                "A parameter is out of its valid range; the message names it and the range.",
-                                                inputBases.ptr(), nullptr);
+    gInputError = PyErr_NewExceptionWithDoc(
+        "gpisvdb.InputError", "The input (a file or an array) is missing, malformed or holds unusable data.", inputBases.ptr(), nullptr);
+    gParameterError = PyErr_NewExceptionWithDoc(
+        "gpisvdb.ParameterError", "A parameter is out of its valid range; the message names it and the range.", inputBases.ptr(), nullptr);
     gMemoryLimitError = PyErr_NewExceptionWithDoc(
         "gpisvdb.MemoryLimitError",
         "The work would need more memory than max_memory allows; refused before allocating. The message names the "

@@ -55,8 +55,8 @@ py::dict solverInfo(const PcgResult& r) {
                     "converged"_a = r.converged, "preconditioner"_a = preconditionerName(r.preconditioner));
 }
 
-py::dict green(const PyBand& b, py::handle source, double tolerance, int maxIterations, const std::string& preconditioner,
-               int threads, py::object progress) {
+py::dict green(const PyBand& b, py::handle source, double tolerance, int maxIterations, const std::string& preconditioner, int threads,
+               py::object progress) {
     const Vec3d y = points3(source, "source", true).front();
     const PcgOptions po = pcgOptions(tolerance, maxIterations, preconditioner);
     Work work(threads, std::move(progress));
@@ -126,23 +126,22 @@ py::array matrixCopy(const Eigen::MatrixXd& m) {
     return std::move(a);
 }
 
-py::tuple spectrumTask(const PyBand& b, int k, int subspace, double tolerance, int maxRestarts, const std::string& method,
-                       int threads, py::object progress) {
+py::tuple spectrumTask(const PyBand& b, int k, int subspace, double tolerance, int maxRestarts, const std::string& method, int threads,
+                       py::object progress) {
     EigenOptions o = eigenOptions(b, k, subspace, tolerance, maxRestarts);
     o.method = eigenMethod(method);
     Work work(threads, std::move(progress));
     EigenResult e = work([&](const Progress& progress) { return spectrum(b.band(), o, progress); });
-    return py::make_tuple(py::array_t<double>(py::ssize_t(e.values.size()), e.values.data()), matrixCopy(e.vectors),
-                          eigenInfo(e));
+    return py::make_tuple(py::array_t<double>(py::ssize_t(e.values.size()), e.values.data()), matrixCopy(e.vectors), eigenInfo(e));
 }
 
-py::dict regress(const PyBand& b, py::handle points, py::handle values, py::object noise, int k, double nu,
-                 std::optional<double> kappa, std::optional<double> amplitude, int threads, py::object progress) {
+py::dict regress(const PyBand& b, py::handle points, py::handle values, py::object noise, int k, double nu, std::optional<double> kappa,
+                 std::optional<double> amplitude, int threads, py::object progress) {
     PointData data;
     data.position = points3(points, "points", true);
     data.value = values1(values, "values", data.position.size());
-    data.noise = noise.is_none() ? std::vector<double>(data.position.size(), 0.0)
-                                 : values1(noise, "noise", data.position.size(), false, true);
+    data.noise =
+        noise.is_none() ? std::vector<double>(data.position.size(), 0.0) : values1(noise, "noise", data.position.size(), false, true);
     RegressionOptions ro;
     ro.kernel.nu = nu;
     if (!(nu > 0)) throw ParameterError("nu must be > 0 (or math.inf)");
@@ -167,8 +166,8 @@ py::dict regress(const PyBand& b, py::handle points, py::handle values, py::obje
                     "prior_mean"_a = r.priorMean, "amplitude"_a = r.amplitude, "kappa"_a = r.kappa);
 }
 
-py::dict hodge(const PyBand& b, py::handle field, const std::string& boundary, double tolerance, int maxIterations,
-               int threads, py::object progress) {
+py::dict hodge(const PyBand& b, py::handle field, const std::string& boundary, double tolerance, int maxIterations, int threads,
+               py::object progress) {
     std::vector<float> V;
     if (py::isinstance<py::str>(field)) {
         const std::string p = field.cast<std::string>();
@@ -224,9 +223,9 @@ py::dict smoothedDistance(const PyBand& b, double alpha, std::optional<double> g
             for (int k = 0; k < dim.z(); ++k)
                 out[(std::size_t(i) * std::size_t(dim.y()) + std::size_t(j)) * std::size_t(dim.z()) + std::size_t(k)] =
                     acc.getValue(box.min().offsetBy(i, j, k));
-    return py::dict("values"_a = values, "origin"_a = py::make_tuple(r.voxelSize * box.min().x(), r.voxelSize * box.min().y(), r.voxelSize * box.min().z()),
-                    "voxel_size"_a = r.voxelSize, "background"_a = r.background, "tolerance"_a = r.tolerance,
-                    "mean_terms"_a = r.meanTerms);
+    return py::dict("values"_a = values,
+                    "origin"_a = py::make_tuple(r.voxelSize * box.min().x(), r.voxelSize * box.min().y(), r.voxelSize * box.min().z()),
+                    "voxel_size"_a = r.voxelSize, "background"_a = r.background, "tolerance"_a = r.tolerance, "mean_terms"_a = r.meanTerms);
 }
 
 /// (V (n, 3) float64 world units, F (m, 3) int32) of a mesh.
@@ -291,8 +290,7 @@ py::tuple meanSurfaceTask(const PyBand& b, std::optional<double> iso, py::object
     return py::make_tuple(VF[0], VF[1], values);
 }
 
-py::list surfacesTask(const PyBand& b, int count, std::uint64_t seed, int first, double beta, int threads,
-                     py::object progress) {
+py::list surfacesTask(const PyBand& b, int count, std::uint64_t seed, int first, double beta, int threads, py::object progress) {
     if (b.model->trainingSize > 0)
         throw ParameterError("plausible surfaces are drawn from the winding-number model only (model='winding')");
     SurfaceDrawOptions o;
@@ -332,8 +330,8 @@ voxel): solves L f = M delta_y by PCG (docs/operators.md), as `gpisvdb green`.
 Returns {'values': (N,) float32 G(., y), 'source_index': int, 'solver': {iterations, relative_residual, restarts,
 converged, preconditioner}}. tolerance: PCG relative residual (> 0); preconditioner 'auto' (multigrid from 1e5
 voxels, Jacobi below), 'multigrid' (hypre BoomerAMG), 'jacobi' or 'ic'.)doc")
-        .def("geodesic", &geodesic, "sources"_a, "targets"_a = py::none(), py::kw_only(), "stop_at_targets"_a = false,
-             "threads"_a = 0, "progress"_a = py::none(),
+        .def("geodesic", &geodesic, "sources"_a, "targets"_a = py::none(), py::kw_only(), "stop_at_targets"_a = false, "threads"_a = 0,
+             "progress"_a = py::none(),
              R"doc(Geodesic distance on the GPIS by Hamiltonian fast marching (docs/geodesic.md), as `gpisvdb geodesic`.
 
 sources: one point (x, y, z) or k x 3 points, world units, snapped to the nearest voxels; targets: None, one point
@@ -342,8 +340,8 @@ Returns a dict: 'distance' (N,) float64 U (world units x T^-1/2; inf where not r
 p_i x 3 float64 polylines, world units, target to source), 'path_length' (t,) Euclidean lengths, 'path_distance'
 (t,) U at each target, 'reached_source' (t,) bool, 'source_index', 'target_index', 'reached', 'unreached'.)doc")
         .def("spectrum", &spectrumTask, "k"_a = EigenOptions{}.count, py::kw_only(), "subspace"_a = 0,
-             "eigen_tolerance"_a = EigenOptions{}.tolerance, "max_restarts"_a = EigenOptions{}.maxRestarts,
-             "method"_a = "auto", "threads"_a = 0, "progress"_a = py::none(),
+             "eigen_tolerance"_a = EigenOptions{}.tolerance, "max_restarts"_a = EigenOptions{}.maxRestarts, "method"_a = "auto",
+             "threads"_a = 0, "progress"_a = py::none(),
              R"doc(The k lowest eigenpairs of L u = lambda M u (docs/spectrum.md), as `gpisvdb spectrum`.
 Returns (values, vectors, info): values (k,) float64 ascending, world units^-2; vectors (N, k) float64,
 M-orthonormal (sum u_i u_j mu h^3 = delta_ij); info: residuals, orthonormality error, solver counts, method.
@@ -362,8 +360,8 @@ Returns {'mean', 'variance': (N,) float32, 'mean_at_data', 'variance_at_data': (
 field: an (N, 3) array (world units, one vector per voxel) or a preset 'rotation', 'gradient', 'mixed'.
 Returns {'input', 'gradient', 'free': (N, 3) float32, 'potential': (N,) float32, 'divergence_residual',
 's_inner_product', 'solver'}.)doc")
-        .def("smoothed_distance", &smoothedDistance, "alpha"_a, py::kw_only(), "grid_voxel_size"_a = py::none(),
-             "padding"_a = py::none(), "tolerance"_a = py::none(), "brute_force"_a = false, "threads"_a = 0, "progress"_a = py::none(),
+        .def("smoothed_distance", &smoothedDistance, "alpha"_a, py::kw_only(), "grid_voxel_size"_a = py::none(), "padding"_a = py::none(),
+             "tolerance"_a = py::none(), "brute_force"_a = false, "threads"_a = 0, "progress"_a = py::none(),
              R"doc(The smoothed distance d_alpha to the GPIS (paper Eq. 31; docs/smoothed_distance.md) on a dense grid covering the
 band, as `gpisvdb distance`. alpha: sharpness, world units^-1 (> 0). grid_voxel_size H (None: box / 128),
 padding (None: 10 % of the box), tolerance per value (None: H / 100), all world units.

@@ -36,8 +36,7 @@ public:
     /// fraction: float), called on the calling thread with the GIL held.
     Work(int threads, py::object progress) : state_(std::make_shared<State>()) {
         if (threads < 0) throw ParameterError("threads must be >= 0 (got " + std::to_string(threads) + ")");
-        if (threads > 0)
-            limit_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+        if (threads > 0) limit_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
         if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
             throw ParameterError("progress must be None or a callable (stage: str, fraction: float)");
         state_->callback = std::move(progress);

@@ -53,7 +53,8 @@ TEST_CASE("ranks: together throws on every rank the lowest failing rank's error,
     // Ranks 1 and 2 fail (2 with another error): every rank sees rank 1's
     try {
         mpi::together(ranks, [&] {
-            if (ranks.rank == 1) throw ParameterError("the voxel size (BandOptions::voxelSize) is bad on rank 1", {"BandOptions::voxelSize"});
+            if (ranks.rank == 1)
+                throw ParameterError("the voxel size (BandOptions::voxelSize) is bad on rank 1", {"BandOptions::voxelSize"});
             if (ranks.rank == 2) throw InputError("rank 2's input");
         });
         FAIL("together returned although rank 1 failed");
@@ -63,9 +64,15 @@ TEST_CASE("ranks: together throws on every rank the lowest failing rank's error,
     }
     CHECK(mpi::errorsAgreed());
     // A cancellation stays a cancellation; a foreign exception becomes an internal error naming its rank
-    CHECK_THROWS_AS(mpi::together(ranks, [&] { if (ranks.rank == ranks.size - 1) throw Cancelled(); }), Cancelled);
+    CHECK_THROWS_AS(mpi::together(ranks,
+                                  [&] {
+                                      if (ranks.rank == ranks.size - 1) throw Cancelled();
+                                  }),
+                    Cancelled);
     try {
-        mpi::together(ranks, [&] { if (ranks.rank == 1) throw std::runtime_error("boom"); });
+        mpi::together(ranks, [&] {
+            if (ranks.rank == 1) throw std::runtime_error("boom");
+        });
         FAIL("together returned although rank 1 failed");
     } catch (const Error& e) {
         CHECK(std::string(e.what()).find(ranks.rank == 1 ? "boom" : "internal error on rank 1: boom") != std::string::npos);

@@ -21,9 +21,9 @@ namespace {
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 /// Documented accuracy limits (docs/band.md#warnings).
-constexpr double kDocumentedBeta = 6;           // docs/model.md
-constexpr int kDocumentedQmc = 512;             // docs/band.md, μ and T
-constexpr double kRegularisedFraction = 0.01;   // more than 1 % of the voxels regularised
+constexpr double kDocumentedBeta = 6;          // docs/model.md
+constexpr int kDocumentedQmc = 512;            // docs/band.md, μ and T
+constexpr double kRegularisedFraction = 0.01;  // more than 1 % of the voxels regularised
 
 }  // namespace
 
@@ -33,10 +33,12 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
     cmd.add_option("--eta", f.band.etaRelative, "band threshold: keep mu > eta x (median mu at the samples' voxels) (> 0)")
         ->capture_default_str();
     const std::string k = numberText(kMuWidthFactor);
-    auto* vs = cmd.add_option("--voxel-size", f.band.voxelSize,
-                              "voxel size h in world units (default: min(h*, " + k + " w_mu), h* = l / max stencil width, w_mu mu's width)");
-    cmd.add_option("--resolution-scale", f.resolutionScale,
-                   "scales the default voxel size, h* and " + k + " w_mu alike (> 0; below 1 is finer: 0.6 for pictures of mu without moire)")
+    auto* vs =
+        cmd.add_option("--voxel-size", f.band.voxelSize,
+                       "voxel size h in world units (default: min(h*, " + k + " w_mu), h* = l / max stencil width, w_mu mu's width)");
+    cmd.add_option(
+           "--resolution-scale", f.resolutionScale,
+           "scales the default voxel size, h* and " + k + " w_mu alike (> 0; below 1 is finer: 0.6 for pictures of mu without moire)")
         ->excludes(vs)
         ->each([&f](const std::string&) { f.resolutionScaleGiven = true; })
         ->capture_default_str();
@@ -52,8 +54,7 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
                    "surface (voxel; the winding model's s is then at least 2h)")
         ->transform(CLI::CheckedTransformer(values));
     cmd.add_option("--qmc", f.band.qmcSamples, "QMC points S for mu and T (>= 1)")->capture_default_str();
-    cmd.add_option("--max-anisotropy", f.band.maxAnisotropy, "T is regularised to sqrt(lmax/lmin) <= this (>= 1)")
-        ->capture_default_str();
+    cmd.add_option("--max-anisotropy", f.band.maxAnisotropy, "T is regularised to sqrt(lmax/lmin) <= this (>= 1)")->capture_default_str();
     cmd.add_option("--max-memory", f.maxMemory, "refuse bands needing more memory than this (default: half the RAM)");
     cmd.add_option("--report", f.report, "write a JSON report (parameters, band, timings, memory)");
     cmd.add_flag("--half", f.vdb.halfFloat, "store the .vdb grids as 16-bit floats (half the file, about 3 significant digits)");
@@ -66,7 +67,7 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
         ->check([](const std::string& name) {
             const auto& taken = bandGridNames();
             return std::find(taken.begin(), taken.end(), name) == taken.end() ? std::string()
-                                                                             : "'" + name + "' is one of the band's own grids";
+                                                                              : "'" + name + "' is one of the band's own grids";
         });
     cmd.add_flag("--nanovdb", f.vdb.nanoVdb, "write the grids as NanoVDB (also chosen by an output ending in .nvdb)");
 }
@@ -183,11 +184,15 @@ nlohmann::json solverReport(const PcgResult& r, const PcgOptions& options) {
     std::string method = std::string("PCG, ") + preconditionerName(r.preconditioner);
     if (r.preconditioner == Preconditioner::Multigrid) method += " (hypre BoomerAMG)";
     if (r.refinements > 0) method += ", refined in double";
-    nlohmann::json report = {{"method", method}, {"preconditioner", preconditionerName(r.preconditioner)},
+    nlohmann::json report = {{"method", method},
+                             {"preconditioner", preconditionerName(r.preconditioner)},
                              {"preconditioner_requested", preconditionerName(options.preconditioner)},
-                             {"iterations", r.iterations}, {"restarts", r.restarts},
-                             {"refinements", r.refinements}, {"inner_iterations", r.innerIterations},
-                             {"relative_residual", r.relativeResidual}, {"float_residual", r.floatResidual},
+                             {"iterations", r.iterations},
+                             {"restarts", r.restarts},
+                             {"refinements", r.refinements},
+                             {"inner_iterations", r.innerIterations},
+                             {"relative_residual", r.relativeResidual},
+                             {"float_residual", r.floatResidual},
                              {"tolerance", options.tolerance}};
     if (r.preconditioner == Preconditioner::Multigrid || r.preconditioner == Preconditioner::Aggregation)
         report["multigrid"] = {{"levels", r.multigridLevels}, {"operator_complexity", r.multigridComplexity}};
@@ -202,21 +207,18 @@ MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::
     });
 }
 
-std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, const PcgOptions& options,
-                                                            Preconditioner preconditioner) {
-    std::vector<std::pair<std::string, double>> parts = {{"laplacian", laplacianOperatorBytes(voxels)},
-                                                         {"pcg", pcgWorkBytes(voxels, options)},
-                                                         {"rhs_and_solution", 8.0 * double(voxels)}};
+std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, const PcgOptions& options, Preconditioner preconditioner) {
+    std::vector<std::pair<std::string, double>> parts = {
+        {"laplacian", laplacianOperatorBytes(voxels)}, {"pcg", pcgWorkBytes(voxels, options)}, {"rhs_and_solution", 8.0 * double(voxels)}};
     if (preconditioner == Preconditioner::Multigrid) parts.emplace_back("multigrid", multigridBytes(voxels));
     if (preconditioner == Preconditioner::Aggregation) parts.emplace_back("aggregation", aggregationBytes(voxels));
-    if (preconditioner == Preconditioner::IncompleteCholesky)
-        parts.emplace_back("incomplete_cholesky", incompleteCholeskyBytes(voxels));
+    if (preconditioner == Preconditioner::IncompleteCholesky) parts.emplace_back("incomplete_cholesky", incompleteCholeskyBytes(voxels));
     return parts;
 }
 
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
-    return app::bandMetadata({commandLine(), job.inputPath, flags.model.labels}, job.modelOptions, job.model, job.options,
-                             job.resolution, job.budgeted, job.result, flags.vdb);
+    return app::bandMetadata({commandLine(), job.inputPath, flags.model.labels}, job.modelOptions, job.model, job.options, job.resolution,
+                             job.budgeted, job.result, flags.vdb);
 }
 
 void addGreenMetadata(openvdb::MetaMap& meta, const Vec3d& source, const openvdb::Coord& y, const PcgResult& solve) {
@@ -237,36 +239,62 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
     getrusage(RUSAGE_SELF, &ru);
     const openvdb::CoordBBox bb = band.bbox();
     return {
-        {"input", {{"path", job.inputPath}, {"samples", in.samples.size()}, {"length_scale", in.samples.lengthScale},
-                   {"kind", in.isSoup ? "triangle soup" : "oriented point cloud"},
-                   {"skipped_zero_area", in.degenerateSkipped}, {"normals_flipped", in.normalsFlipped}}},
-        {"parameters", {{"sigma_rel", flags.model.sigmaRel}, {"sigma", in.sigma},
-                        {"smoothing_rel", flags.model.smoothingRel}, {"smoothing", job.model.smoothing},
-                        {"noise_smoothing", flags.model.noiseSmoothing},
-                        {"smoothing_set_by", smoothingSourceName(job.model.smoothingSource)},
-                        {"model", flags.model.model}, {"training_labels", job.model.trainingSize},
-                        {"iso", job.options.iso}, {"eta_rel", job.options.etaRelative}, {"eta", st.etaAbsolute},
-                        {"voxel_size", job.options.voxelSize}, {"h_star", job.resolution.hStar},
-                        {"mu_width", job.resolution.muWidth}, {"resolution_scale", flags.resolutionScale},
-                        {"voxel_values", job.options.voxelValues ? "voxel" : "point"},
-                        {"max_band_voxels", job.maxBandVoxels},
-                        {"voxel_size_by_budget", job.budgeted}, {"accuracy_voxel_size", job.accuracyVoxelSize},
-                        {"accuracy_voxels", job.accuracyVoxels}, {"voxel_size_note", job.voxelSizeNote},
-                        {"qmc_samples", job.options.qmcSamples}, {"beta", flags.model.beta}, {"exact", flags.model.exact},
-                        {"max_anisotropy", job.options.maxAnisotropy}, {"max_memory_bytes", job.maxMemory}}},
-        {"band", {{"voxels", band.size()}, {"voxel_size", job.options.voxelSize},
-                  {"bbox_voxels", {bb.dim().x(), bb.dim().y(), bb.dim().z()}},
-                  {"bbox_min", {bb.min().x(), bb.min().y(), bb.min().z()}}, {"mass", band.mass()},
-                  {"max_stencil_l1", st.maxStencilL1}, {"max_stencil_l1_at_samples", job.resolution.maxStencilL1},
-                  {"evaluated_voxels", st.evaluated}, {"bfs_levels", st.levels},
-                  {"estimated_voxels", job.estimate.voxels}, {"estimated_evaluated_voxels", job.estimate.evaluated},
-                  {"regularised_voxels", st.regularised}, {"median_mu_at_samples", st.medianSampleMu},
-                  {"stage_seconds", {{"model", st.modelSeconds}, {"kac_rice", st.kacRiceSeconds},
-                                     {"search", st.searchSeconds}, {"finish", st.finishSeconds}}}}},
+        {"input",
+         {{"path", job.inputPath},
+          {"samples", in.samples.size()},
+          {"length_scale", in.samples.lengthScale},
+          {"kind", in.isSoup ? "triangle soup" : "oriented point cloud"},
+          {"skipped_zero_area", in.degenerateSkipped},
+          {"normals_flipped", in.normalsFlipped}}},
+        {"parameters",
+         {{"sigma_rel", flags.model.sigmaRel},
+          {"sigma", in.sigma},
+          {"smoothing_rel", flags.model.smoothingRel},
+          {"smoothing", job.model.smoothing},
+          {"noise_smoothing", flags.model.noiseSmoothing},
+          {"smoothing_set_by", smoothingSourceName(job.model.smoothingSource)},
+          {"model", flags.model.model},
+          {"training_labels", job.model.trainingSize},
+          {"iso", job.options.iso},
+          {"eta_rel", job.options.etaRelative},
+          {"eta", st.etaAbsolute},
+          {"voxel_size", job.options.voxelSize},
+          {"h_star", job.resolution.hStar},
+          {"mu_width", job.resolution.muWidth},
+          {"resolution_scale", flags.resolutionScale},
+          {"voxel_values", job.options.voxelValues ? "voxel" : "point"},
+          {"max_band_voxels", job.maxBandVoxels},
+          {"voxel_size_by_budget", job.budgeted},
+          {"accuracy_voxel_size", job.accuracyVoxelSize},
+          {"accuracy_voxels", job.accuracyVoxels},
+          {"voxel_size_note", job.voxelSizeNote},
+          {"qmc_samples", job.options.qmcSamples},
+          {"beta", flags.model.beta},
+          {"exact", flags.model.exact},
+          {"max_anisotropy", job.options.maxAnisotropy},
+          {"max_memory_bytes", job.maxMemory}}},
+        {"band",
+         {{"voxels", band.size()},
+          {"voxel_size", job.options.voxelSize},
+          {"bbox_voxels", {bb.dim().x(), bb.dim().y(), bb.dim().z()}},
+          {"bbox_min", {bb.min().x(), bb.min().y(), bb.min().z()}},
+          {"mass", band.mass()},
+          {"max_stencil_l1", st.maxStencilL1},
+          {"max_stencil_l1_at_samples", job.resolution.maxStencilL1},
+          {"evaluated_voxels", st.evaluated},
+          {"bfs_levels", st.levels},
+          {"estimated_voxels", job.estimate.voxels},
+          {"estimated_evaluated_voxels", job.estimate.evaluated},
+          {"regularised_voxels", st.regularised},
+          {"median_mu_at_samples", st.medianSampleMu},
+          {"stage_seconds",
+           {{"model", st.modelSeconds}, {"kac_rice", st.kacRiceSeconds}, {"search", st.searchSeconds}, {"finish", st.finishSeconds}}}}},
         {"warnings", job.warnings},
-        {"memory", {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0}, {"band_bytes_per_voxel", job.bandBytesPerVoxel},
-                    {"estimated_peak_bytes", job.estimate.memory.peakBytes()},
-                    {"estimate_baseline_bytes", job.estimate.memory.baselineBytes}}},
+        {"memory",
+         {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0},
+          {"band_bytes_per_voxel", job.bandBytesPerVoxel},
+          {"estimated_peak_bytes", job.estimate.memory.peakBytes()},
+          {"estimate_baseline_bytes", job.estimate.memory.baselineBytes}}},
     };
 }
 

@@ -21,14 +21,14 @@ struct BandFlags {
     ModelFlags model;
     BandOptions band;
     double resolutionScale = 1.0;
-    bool resolutionScaleGiven = false;  ///< --resolution-scale was given: the budget applies only with --max-voxels
+    bool resolutionScaleGiven = false;             ///< --resolution-scale was given: the budget applies only with --max-voxels
     double maxBandVoxels = kDefaultMaxBandVoxels;  ///< --max-voxels (0: none)
     bool maxBandVoxelsGiven = false;
-    std::string budgetDefaultWhy;  ///< why this command's default budget is not kDefaultMaxBandVoxels (the note says it)
+    std::string budgetDefaultWhy;                  ///< why this command's default budget is not kDefaultMaxBandVoxels (the note says it)
     VoxelValues voxelValues = VoxelValues::Point;  ///< --voxel-values
-    std::string maxMemory;  ///< "8G", "512M", "1e9"; empty: half the RAM
-    std::string report;     ///< JSON report path; empty: none
-    VdbWriteOptions vdb;    ///< --half, --stencils, --fog-name, --nanovdb (or an output ending in .nvdb)
+    std::string maxMemory;                         ///< "8G", "512M", "1e9"; empty: half the RAM
+    std::string report;                            ///< JSON report path; empty: none
+    VdbWriteOptions vdb;                           ///< --half, --stencils, --fog-name, --nanovdb (or an output ending in .nvdb)
 };
 void addBandFlags(CLI::App& cmd, BandFlags& flags);
 
@@ -39,7 +39,7 @@ struct BandJob {
     Resolution resolution;
     BandOptions options;  ///< as used (voxel size resolved)
     BandResult result;
-    BandEstimate estimate;  ///< size and memory estimated before the build
+    BandEstimate estimate;                             ///< size and memory estimated before the build
     double accuracyVoxelSize = 0, accuracyVoxels = 0;  ///< DefaultBand's: h before the budget, and its voxels
     bool budgeted = false;                             ///< the band-voxel budget set the voxel size
     double maxBandVoxels = 0;                          ///< the budget as used (0: none)
@@ -84,13 +84,12 @@ enum class Spill {
 
 /// Which flags addSolverFlags registers.
 enum class SolverFlags {
-    ToleranceOnly,  ///< --tolerance and --max-iterations (the operator picks its own preconditioner)
-    Preconditioner, ///< also --preconditioner auto|multigrid|jacobi|ic
-    Distributed,    ///< also --preconditioner auto|multigrid|jacobi (gpisvdb-mpi: PETSc double, no incomplete Cholesky)
+    ToleranceOnly,   ///< --tolerance and --max-iterations (the operator picks its own preconditioner)
+    Preconditioner,  ///< also --preconditioner auto|multigrid|jacobi|ic
+    Distributed,     ///< also --preconditioner auto|multigrid|jacobi (gpisvdb-mpi: PETSc double, no incomplete Cholesky)
 };
 /// --tolerance, --max-iterations and (per `which`) --preconditioner, into `options`.
 void addSolverFlags(CLI::App& cmd, PcgOptions& options, SolverFlags which);
-
 
 /// Throws an Error naming the flag to change when a PCG solve stopped short of its tolerance.
 void requireConverged(const PcgResult& result, const PcgOptions& options);
@@ -108,8 +107,7 @@ MemoryEstimate estimateStage(const BandJob& job, const std::string& stage, std::
 /// L the PCG applies, its work vectors, the right-hand side and solution, and the set-up of `preconditioner` (the
 /// aggregation multigrid sums L's edges into its coarse levels; hypre's multigrid assembles L and keeps its
 /// hierarchy; the incomplete Cholesky assembles L and keeps its factor).
-std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, const PcgOptions& options,
-                                                            Preconditioner preconditioner);
+std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, const PcgOptions& options, Preconditioner preconditioner);
 
 /// The Green's function's metadata: its source point and voxel, and the solve's iterations, residuals, refinements
 /// and preconditioner (gpisvdb green and gpisvdb-mpi green write the same keys).

@@ -13,19 +13,23 @@
 namespace gpisvdb::cli {
 
 void addConvert(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("convert", "write the input's samples and their noise as Gaussian dipoles (.gdp), the paper's own format");
+    auto* cmd =
+        app.add_subcommand("convert", "write the input's samples and their noise as Gaussian dipoles (.gdp), the paper's own format");
     struct Args {
         std::string input, output, maxMemory;
         ModelFlags model;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("INPUT", a->input, kInputHelp)->required();
-    cmd->add_option("-o,--output", a->output, "output .gdp: per sample its position, vector area and the 6x6 covariance of both")->required();
+    cmd->add_option("-o,--output", a->output, "output .gdp: per sample its position, vector area and the 6x6 covariance of both")
+        ->required();
     addModelFlags(*cmd, a->model, /*withModel*/ false);
-    cmd->add_option("--max-memory", a->maxMemory, "refuse inputs whose samples need more memory than this, e.g. 8G (default: half the RAM)");
-    cmd->footer("Each triangle or point becomes one dipole, with the noise the model gives it (--sigma for inputs\n"
-                "without their own). Numbers are written in the shortest form that reads back to the same value.\n"
-                "Example:\n  gpisvdb convert bunny.obj --sigma 0.25 -o bunny.gdp");
+    cmd->add_option("--max-memory", a->maxMemory,
+                    "refuse inputs whose samples need more memory than this, e.g. 8G (default: half the RAM)");
+    cmd->footer(
+        "Each triangle or point becomes one dipole, with the noise the model gives it (--sigma for inputs\n"
+        "without their own). Numbers are written in the shortest form that reads back to the same value.\n"
+        "Example:\n  gpisvdb convert bunny.obj --sigma 0.25 -o bunny.gdp");
     cmd->callback([&action, a] {
         action = [a] {
             std::string ext = std::filesystem::path(a->output).extension().string();

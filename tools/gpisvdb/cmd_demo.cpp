@@ -5,8 +5,8 @@
 // there and the path goes round the ring, at larger σ it bridges the gap and the path crosses it).
 #include <array>
 #include <chrono>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -81,7 +81,7 @@ struct SigmaRun {
     SurfaceMesh surface;
     openvdb::FloatGrid::Ptr mu;
     openvdb::FloatGrid::Ptr occupancy;                          ///< P(inside), for the sections' ground
-    std::vector<std::vector<Vec3d>> meanSection;               ///< {γ = u} on the plane kSection
+    std::vector<std::vector<Vec3d>> meanSection;                ///< {γ = u} on the plane kSection
     std::vector<std::vector<std::vector<Vec3d>>> drawSections;  ///< {γ + J ε_k = u} on it, per draw
     nlohmann::json timings;
     nlohmann::json memory;  ///< memory.stages.<green|geodesic|spectrum>: estimated and measured (docs/memory.md#demo)
@@ -120,7 +120,8 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     pcg.tolerance = 1e-5;  // pictures need far less than the default 1e-6
     const MemoryEstimate greenMemory = estimateStage(
         job, "Green's function solve",
-        greenSolveBytes(band.size(), pcg, resolvePreconditioner(pcg.preconditioner, band.size(), /*assemblable*/ true, /*bandLaplacian*/ true)));
+        greenSolveBytes(band.size(), pcg,
+                        resolvePreconditioner(pcg.preconditioner, band.size(), /*assemblable*/ true, /*bandLaplacian*/ true)));
     bool stageOnly = resetPeakResident();
     const LaplacianOperator L(band);
     const GreenResult green = greensFunction(band, L, kSource, pcg, progress);
@@ -171,11 +172,11 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     std::vector<float> layerMean;
     for (std::size_t i : layerVoxels) layerMean.push_back(band.mean[i]);
     const auto meanLayer = drawGrid(band, layerVoxels, layerMean);
-    const MemoryEstimate sectionMemory = estimateStage(
-        job, "plausible sections",
-        {{"draws' noise and tree", SurfaceDraws::bytes(samples.size(), drawOptions)},
-         {"draws' values on the slice", 4.0 * kSectionDraws * double(layerVoxels.size())},
-         {"draw's grid", double(meanLayer->memUsage())}});  // one at a time, the mean's topology
+    const MemoryEstimate sectionMemory =
+        estimateStage(job, "plausible sections",
+                      {{"draws' noise and tree", SurfaceDraws::bytes(samples.size(), drawOptions)},
+                       {"draws' values on the slice", 4.0 * kSectionDraws * double(layerVoxels.size())},
+                       {"draw's grid", double(meanLayer->memUsage())}});  // one at a time, the mean's topology
     stageOnly = resetPeakResident();
     if (!layerVoxels.empty()) {
         const SurfaceDraws draws(samples, job.model.smoothing, drawOptions);
@@ -203,11 +204,10 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     }
     run.surface = meanSurface(*mean, job.options.iso);
     for (const auto& g : grids)
-        if (g->isType<openvdb::FloatGrid>() && g->getName() != "mean" && g->getName() != "stencil_width")
-            sampleAtVertices(run.surface, *g);
+        if (g->isType<openvdb::FloatGrid>() && g->getName() != "mean" && g->getName() != "stencil_width") sampleAtVertices(run.surface, *g);
     writeMesh(run.surface, (tmp / run.subdir / "surface.vtp").string(), MeshFormat::Vtp);
     writePaths(geo.paths, (tmp / run.subdir / "path.vtp").string(), PathFormat::Vtp);
-    run.timings = {{"band", job.secondsBand}, {"green", secondsGreen}, {"geodesic", secondsGeodesic},
+    run.timings = {{"band", job.secondsBand},     {"green", secondsGreen},       {"geodesic", secondsGeodesic},
                    {"spectrum", secondsSpectrum}, {"sections", secondsSections}, {"outputs", since(t)}};
     return run;
 }
@@ -235,7 +235,8 @@ void comparisonPicture(const std::vector<SigmaRun>& runs, const DemoArgs& a, con
     row([](const SigmaRun& r) {
         RenderPanel p;
         std::ostringstream t;
-        t << "geodesic distance, path " << std::setprecision(3) << r.path.length << (r.pathCrossesGap ? " (across the gap)" : " (round the ring)");
+        t << "geodesic distance, path " << std::setprecision(3) << r.path.length
+          << (r.pathCrossesGap ? " (across the gap)" : " (round the ring)");
         p.title = t.str();
         p.surface = &r.surface, p.array = "geodesic", p.paths = {r.path.points};
         return p;
@@ -254,9 +255,8 @@ void comparisonPicture(const std::vector<SigmaRun>& runs, const DemoArgs& a, con
     });
     row([](const SigmaRun& r) {
         // matplotlib's tab10, without its grey: told apart on the light ground
-        static const std::array<double, 3> kColours[] = {{0.12, 0.47, 0.71}, {1.00, 0.50, 0.05}, {0.17, 0.63, 0.17},
-                                                         {0.84, 0.15, 0.16}, {0.58, 0.40, 0.74}, {0.55, 0.34, 0.29},
-                                                         {0.89, 0.47, 0.76}, {0.09, 0.75, 0.81}};
+        static const std::array<double, 3> kColours[] = {{0.12, 0.47, 0.71}, {1.00, 0.50, 0.05}, {0.17, 0.63, 0.17}, {0.84, 0.15, 0.16},
+                                                         {0.58, 0.40, 0.74}, {0.55, 0.34, 0.29}, {0.89, 0.47, 0.76}, {0.09, 0.75, 0.81}};
         RenderPanel p;
         p.title = "P(inside); " + std::to_string(r.drawSections.size()) + " plausible sections, mean black";
         p.sliceGrid = r.occupancy.get(), p.slice = kSection, p.colormap = Colormap::Greys, p.range = {0.0, 1.0};
@@ -294,15 +294,17 @@ void writeSummary(const std::vector<SigmaRun>& runs, const DemoArgs& a, double e
     std::ofstream s(path);
     s << "# gpisvdb demo\n\n"
       << "Input: a torus soup (ring radius 1, tube radius 0.4) with the slab x > 0, |y| < 0.3 of its ring cut away "
-         "(data missing there); length scale l = " << ell << ". Each column of the picture is one noise level sigma "
-         "(relative to l); voxel size " << (a.voxelSize > 0 ? "fixed by --voxel-size" : "by the default rule at each sigma")
-      << ".\n\n"
+         "(data missing there); length scale l = "
+      << ell
+      << ". Each column of the picture is one noise level sigma "
+         "(relative to l); voxel size "
+      << (a.voxelSize > 0 ? "fixed by --voxel-size" : "by the default rule at each sigma") << ".\n\n"
       << "![input](input.png)\n\n![comparison](comparison.png)\n\n"
       << "| sigma / l | voxel size | band voxels | expected area (sum mu h^3) | Green PCG iterations | path length | path | eigenvalues |\n"
       << "|---|---|---|---|---|---|---|---|\n";
     for (const SigmaRun& r : runs) {
-        s << "| " << r.sigmaRel << " | " << r.voxelSize << " | " << r.voxels << " | " << std::setprecision(4) << r.mass << " | " << r.greenIterations
-          << " | " << r.path.length << " | " << (r.pathCrossesGap ? "across the gap" : "round the ring") << " |";
+        s << "| " << r.sigmaRel << " | " << r.voxelSize << " | " << r.voxels << " | " << std::setprecision(4) << r.mass << " | "
+          << r.greenIterations << " | " << r.path.length << " | " << (r.pathCrossesGap ? "across the gap" : "round the ring") << " |";
         for (double l : r.eigenvalues) s << " " << l;
         s << " |\n";
     }
@@ -310,18 +312,21 @@ void writeSummary(const std::vector<SigmaRun>& runs, const DemoArgs& a, double e
          "uncertain: at small sigma its density mu there is too low for the band to close it, and the shortest path "
          "goes round the ring; at larger sigma the band bridges the gap and the path crosses it. The last row cuts "
          "the plane z = 0: the probability of being inside in grey, the mean surface's trace in black and, in colour, "
-         "the traces of " << kSectionDraws << " plausible surfaces (draws of the GPIS, seed " << kSectionSeed << "): they "
+         "the traces of "
+      << kSectionDraws << " plausible surfaces (draws of the GPIS, seed " << kSectionSeed
+      << "): they "
          "agree near the data and scatter across the gap.\n\n"
       << "Files, per sigma in `sigma-<s>/`: `gpis.vdb` (band grids mu, mean, stddev, T_diag, T_offdiag, normal, "
          "stencil_width, and green, geodesic, eigen_000...), `surface.vtp` (the mean surface with every scalar "
-         "field), `path.vtp` (the shortest path); `report.json` (all numbers). Ran in " << std::setprecision(3)
-      << seconds << " s.\n\nReproduce: `" << commandLine() << "`\n";
+         "field), `path.vtp` (the shortest path); `report.json` (all numbers). Ran in "
+      << std::setprecision(3) << seconds << " s.\n\nReproduce: `" << commandLine() << "`\n";
     if (!s) throw OutputError(path + ": cannot write the summary");
 }
 
 /// The flags of `gpisvdb demo`.
 void addFlags(CLI::App& cmd, DemoArgs& a) {
-    cmd.add_option("-o,--output", a.dir, "output directory (created if missing; files of the same names are replaced)")->capture_default_str();
+    cmd.add_option("-o,--output", a.dir, "output directory (created if missing; files of the same names are replaced)")
+        ->capture_default_str();
     cmd.add_option("--sigma", a.sigmas, "noise levels sigma, relative to the length scale l (> 0; one picture column each)")
         ->expected(1, 6)
         ->capture_default_str();
@@ -371,8 +376,7 @@ void execute(DemoArgs& a) {
     const double panelPixels = double(a.pictureWidth) * double(a.pictureWidth * 5 / 6);
     const double pixels = 6.0 * double(runs.size()) * panelPixels;
     const MemoryEstimate picturesMemory = estimateStageWithin(
-        limit, "pictures", "libraries, the results of every sigma", renderBytes(panelVertices, pixels),
-        [&](double need, double available) {
+        limit, "pictures", "libraries, the results of every sigma", renderBytes(panelVertices, pixels), [&](double need, double available) {
             const double window = pixels * kRenderBytesPerPixel, fixed = need - window;
             const double width = available > fixed ? std::floor(a.pictureWidth * std::sqrt((available - fixed) / window) * 0.95) : 0;
             if (width >= 64) return "use --picture-width " + numberText(width) + " or smaller";
@@ -387,20 +391,32 @@ void execute(DemoArgs& a) {
     const double total = since(start);
     writeSummary(runs, a, ell, total, (tmp / "summary.md").string());
 
-    nlohmann::json report = {{"input", {{"shape", "torus (ring 1, tube 0.4), 64 x 24 quads"}, {"gap_box_min", {kGapLo.x(), kGapLo.y(), kGapLo.z()}},
-                                        {"gap_box_max", {kGapHi.x(), kGapHi.y(), kGapHi.z()}}, {"triangles", data.soup->triangles.size()},
-                                        {"length_scale", ell}}},
-                             {"voxel_size", a.voxelSize > 0 ? nlohmann::json(a.voxelSize) : nlohmann::json("default rule per sigma")}, {"source", {kSource.x(), kSource.y(), kSource.z()}},
+    nlohmann::json report = {{"input",
+                              {{"shape", "torus (ring 1, tube 0.4), 64 x 24 quads"},
+                               {"gap_box_min", {kGapLo.x(), kGapLo.y(), kGapLo.z()}},
+                               {"gap_box_max", {kGapHi.x(), kGapHi.y(), kGapHi.z()}},
+                               {"triangles", data.soup->triangles.size()},
+                               {"length_scale", ell}}},
+                             {"voxel_size", a.voxelSize > 0 ? nlohmann::json(a.voxelSize) : nlohmann::json("default rule per sigma")},
+                             {"source", {kSource.x(), kSource.y(), kSource.z()}},
                              {"target", {kTarget.x(), kTarget.y(), kTarget.z()}},
                              {"plausible_sections", {{"plane", "z = 0"}, {"draws", kSectionDraws}, {"seed", kSectionSeed}}},
                              {"runs", nlohmann::json::array()}};
     for (const SigmaRun& r : runs)
-        report["runs"].push_back({{"sigma_rel", r.sigmaRel}, {"sigma", r.sigma}, {"voxel_size", r.voxelSize}, {"directory", r.subdir},
-                                  {"band_voxels", r.voxels}, {"band_mass", r.mass},
+        report["runs"].push_back({{"sigma_rel", r.sigmaRel},
+                                  {"sigma", r.sigma},
+                                  {"voxel_size", r.voxelSize},
+                                  {"directory", r.subdir},
+                                  {"band_voxels", r.voxels},
+                                  {"band_mass", r.mass},
                                   {"green_pcg_iterations", r.greenIterations},
-                                  {"path", {{"length", r.path.length}, {"distance", r.path.distance},
-                                            {"crosses_gap", r.pathCrossesGap}, {"reached_source", r.path.reachedSource}}},
-                                  {"eigenvalues", r.eigenvalues}, {"timings_s", r.timings},
+                                  {"path",
+                                   {{"length", r.path.length},
+                                    {"distance", r.path.distance},
+                                    {"crosses_gap", r.pathCrossesGap},
+                                    {"reached_source", r.path.reachedSource}}},
+                                  {"eigenvalues", r.eigenvalues},
+                                  {"timings_s", r.timings},
                                   {"memory", {{"stages", r.memory}}}});
     report["timings_s"] = {{"pictures", secondsPictures}, {"total", total}};
     report["memory"] = stageReport("pictures", memoryStageReport(picturesMemory, picturesPeak, picturesOnly))["memory"];
@@ -415,12 +431,14 @@ void execute(DemoArgs& a) {
 }  // namespace
 
 void addDemo(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("demo", "the built-in example: a torus with a gap at three noise levels (band, Green, geodesic, eigenfunctions, pictures)");
+    auto* cmd = app.add_subcommand(
+        "demo", "the built-in example: a torus with a gap at three noise levels (band, Green, geodesic, eigenfunctions, pictures)");
     auto a = std::make_shared<DemoArgs>();
     addFlags(*cmd, *a);
-    cmd->footer("Writes DIR/summary.md, DIR/report.json, DIR/input.png, DIR/comparison.png and, per sigma,\n"
-                "DIR/sigma-<s>/{gpis.vdb, surface.vtp, path.vtp}. About a minute on 2 cores.\n"
-                "Examples:\n  gpisvdb demo -o demo-output\n  gpisvdb demo -o quick --sigma 1 --sigma 3 --voxel-size 0.08");
+    cmd->footer(
+        "Writes DIR/summary.md, DIR/report.json, DIR/input.png, DIR/comparison.png and, per sigma,\n"
+        "DIR/sigma-<s>/{gpis.vdb, surface.vtp, path.vtp}. About a minute on 2 cores.\n"
+        "Examples:\n  gpisvdb demo -o demo-output\n  gpisvdb demo -o quick --sigma 1 --sigma 3 --voxel-size 0.08");
     cmd->callback([&action, a] { action = [a] { execute(*a); }; });
 }
 

@@ -26,9 +26,11 @@ struct Args {
 /// The flags of `gpisvdb distance`.
 void addFlags(CLI::App& cmd, Args& a) {
     cmd.add_option("INPUT", a.input, kInputHelp)->required();
-    cmd.add_option("--alpha", a.distance.alpha, "sharpness alpha (world units^-1, > 0): d -> distance to the band as alpha grows")->required();
+    cmd.add_option("--alpha", a.distance.alpha, "sharpness alpha (world units^-1, > 0): d -> distance to the band as alpha grows")
+        ->required();
     cmd.add_option("-o,--output", a.output, "output .vdb (smoothed_distance; with --level also smoothed_distance_level)")->required();
-    cmd.add_option("--grid-voxel-size", a.distance.gridVoxelSize, "voxel size H of the distance grid (world units; default: padded box / 128)");
+    cmd.add_option("--grid-voxel-size", a.distance.gridVoxelSize,
+                   "voxel size H of the distance grid (world units; default: padded box / 128)");
     cmd.add_option("--padding", a.distance.padding, "margin around the band's box (world units; default 10% of its longest side)");
     cmd.add_option("--distance-tolerance", a.distance.tolerance, "bound on the error of each value (world units, > 0; default H/100)");
     cmd.add_flag("--brute-force", a.bruteForce, "exact sums over all band voxels (the baseline; slow)");
@@ -39,9 +41,12 @@ void addFlags(CLI::App& cmd, Args& a) {
 
 /// `gpisvdb distance` once its flags are parsed.
 void execute(Args& a, Clock::time_point start) {
-    if (!(a.distance.alpha > 0) || !std::isfinite(a.distance.alpha)) throw ParameterError("--alpha must be finite and > 0 (world units^-1)");
-    if (a.distance.gridVoxelSize < 0 || !std::isfinite(a.distance.gridVoxelSize)) throw ParameterError("--grid-voxel-size must be finite and > 0");
-    if (a.distance.tolerance < 0 || !std::isfinite(a.distance.tolerance)) throw ParameterError("--distance-tolerance must be finite and > 0");
+    if (!(a.distance.alpha > 0) || !std::isfinite(a.distance.alpha))
+        throw ParameterError("--alpha must be finite and > 0 (world units^-1)");
+    if (a.distance.gridVoxelSize < 0 || !std::isfinite(a.distance.gridVoxelSize))
+        throw ParameterError("--grid-voxel-size must be finite and > 0");
+    if (a.distance.tolerance < 0 || !std::isfinite(a.distance.tolerance))
+        throw ParameterError("--distance-tolerance must be finite and > 0");
     if (!std::isnan(a.level) && !std::isfinite(a.level)) throw ParameterError("--level must be finite");
     a.distance.bruteForce = a.bruteForce;
     std::unique_ptr<AtomicOutput> meshOut;
@@ -98,10 +103,11 @@ void execute(Args& a, Clock::time_point start) {
     if (run.report) {
         nlohmann::json report = bandReport(job, a.flags);
         const openvdb::CoordBBox box = r.grid->evalActiveVoxelBoundingBox();
-        report["distance"] = {{"alpha", a.distance.alpha}, {"voxel_size", r.voxelSize}, {"points", r.points},
-                              {"grid_dims", {box.dim().x(), box.dim().y(), box.dim().z()}},
-                              {"tolerance", r.tolerance}, {"brute_force", a.bruteForce}, {"background", r.background},
-                              {"mean_terms_per_point", r.meanTerms}, {"band_voxels", band.size()}};
+        report["distance"] = {{"alpha", a.distance.alpha},  {"voxel_size", r.voxelSize},
+                              {"points", r.points},         {"grid_dims", {box.dim().x(), box.dim().y(), box.dim().z()}},
+                              {"tolerance", r.tolerance},   {"brute_force", a.bruteForce},
+                              {"background", r.background}, {"mean_terms_per_point", r.meanTerms},
+                              {"band_voxels", band.size()}};
         if (!std::isnan(a.level)) report["distance"]["level"] = a.level;
         if (meshOut) report["distance"]["mesh_triangles"] = mesh.triangles.size();
         report["memory"]["stages"] = {{"distance", memoryStageReport(memory, peak, stageOnly)}};
@@ -110,8 +116,8 @@ void execute(Args& a, Clock::time_point start) {
         commitReport(*run.report, report);
     }
     if (!a.flags.model.quiet)
-        std::cerr << "distance: " << r.points << " points, " << r.meanTerms << " terms per point of " << band.size()
-                  << " voxels, " << secondsDistance << " s\n";
+        std::cerr << "distance: " << r.points << " points, " << r.meanTerms << " terms per point of " << band.size() << " voxels, "
+                  << secondsDistance << " s\n";
 }
 
 }  // namespace
@@ -120,8 +126,9 @@ void addDistance(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("distance", "Smoothed distance to the GPIS on a grid covering it (paper Eq. 31), as a .vdb");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("d(x) = -(1/alpha) log sum_j exp(-alpha |x - x_j|) mu(x_j) h^3, summed with a k-d tree within --distance-tolerance.\n"
-                "Example:\n  gpisvdb distance bunny.obj --alpha 20 --level 0.1 --mesh offset.ply -o distance.vdb --sigma 1");
+    cmd->footer(
+        "d(x) = -(1/alpha) log sum_j exp(-alpha |x - x_j|) mu(x_j) h^3, summed with a k-d tree within --distance-tolerance.\n"
+        "Example:\n  gpisvdb distance bunny.obj --alpha 20 --level 0.1 --mesh offset.ply -o distance.vdb --sigma 1");
     onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
 }
 

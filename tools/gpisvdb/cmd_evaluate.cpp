@@ -24,7 +24,6 @@ std::vector<Vec3d> readQueryPoints(const std::string& path) {
     return xs;
 }
 
-
 struct Args {
     std::string input, at, output;
     ModelFlags flags;
@@ -63,17 +62,15 @@ void execute(Args& a) {
     const double perPoint = double(sizeof(ValueGradient)) + (barnesHut ? 16.0 : 0.0), n = double(xs.size());
     std::vector<std::pair<std::string, double>> parts = {{"values", double(sizeof(ValueGradient)) * n}};
     if (barnesHut) parts.emplace_back("morton_order", 16.0 * n);
-    const MemoryEstimate memory =
-        estimateStageWithin(limit, "evaluation of " + std::to_string(xs.size()) + " points", "libraries, input, model, points",
-                            std::move(parts), [&](double, double available) {
-                                return "split the query points (--at) into files of at most " +
-                                       numberText(std::floor(available / perPoint)) + " points";
-                            });
+    const MemoryEstimate memory = estimateStageWithin(limit, "evaluation of " + std::to_string(xs.size()) + " points",
+                                                      "libraries, input, model, points", std::move(parts), [&](double, double available) {
+                                                          return "split the query points (--at) into files of at most " +
+                                                                 numberText(std::floor(available / perPoint)) + " points";
+                                                      });
     const bool stageOnly = resetPeakResident();
     const auto values = m.model->evaluate(xs, makeProgress(a.flags.quiet));
     std::ofstream csv(out.tempPath());
-    csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz,p_inside\n"
-        << std::setprecision(17);
+    csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz,p_inside\n" << std::setprecision(17);
     for (std::size_t i = 0; i < xs.size(); ++i) {
         const ValueGradient& v = values[i];
         csv << xs[i].x() << ',' << xs[i].y() << ',' << xs[i].z();
@@ -104,11 +101,12 @@ void addEvaluate(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("evaluate", "mean and covariance of (phi, grad phi) at query points, as CSV");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("Columns: x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33 (c: covariance of\n"
-                "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row), then the Kac-Rice surface\n"
-                "density mu and tangent tensor T: mu,Txx,Txy,Txz,Tyy,Tyz,Tzz (world units^-1), then p_inside,\n"
-                "the probability P(phi > u) that the point lies inside the surface.\n"
-                "Example:\n  gpisvdb evaluate bunny.obj --at points.xyz -o values.csv --sigma 0.25");
+    cmd->footer(
+        "Columns: x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33 (c: covariance of\n"
+        "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row), then the Kac-Rice surface\n"
+        "density mu and tangent tensor T: mu,Txx,Txy,Txz,Tyy,Tyz,Tzz (world units^-1), then p_inside,\n"
+        "the probability P(phi > u) that the point lies inside the surface.\n"
+        "Example:\n  gpisvdb evaluate bunny.obj --at points.xyz -o values.csv --sigma 0.25");
     onRun(*cmd, action, a->flags.threads, [a](Clock::time_point) { execute(*a); });
 }
 

@@ -33,8 +33,8 @@ void addFlags(CLI::App& cmd, Args& a) {
     cmd.add_option("--spill", a.spill,
                    "auto (default), always or never: write the band's grids to a side file before the solve and free "
                    "their channels (44 B per voxel); auto does it when the solve would not fit --max-memory otherwise")
-        ->transform(CLI::CheckedTransformer(std::map<std::string, Spill>{
-            {"auto", Spill::Automatic}, {"always", Spill::Always}, {"never", Spill::Never}}));
+        ->transform(CLI::CheckedTransformer(
+            std::map<std::string, Spill>{{"auto", Spill::Automatic}, {"always", Spill::Always}, {"never", Spill::Never}}));
 }
 
 /// `gpisvdb green` once its flags are parsed.
@@ -65,13 +65,14 @@ void execute(Args& a, Clock::time_point start) {
         try {
             spilled = std::make_unique<SpilledBandGrids>(band, run.out->tempPath() + ".grids", a.flags.vdb);
         } catch (const OutputError& e) {
-            throw OutputError(std::string(e.what()) + " (the band's grids spilled before the solve; --spill never "
-                                                      "keeps them in memory instead)");
+            throw OutputError(std::string(e.what()) +
+                              " (the band's grids spilled before the solve; --spill never "
+                              "keeps them in memory instead)");
         }
         releaseSpilledChannels(band);
         if (!a.flags.model.quiet)
-            std::cerr << "green: the band's grids are written ahead to " << spilled->path() << ", freeing "
-                      << numberText(freed / 1e6) << " MB for the solve\n";
+            std::cerr << "green: the band's grids are written ahead to " << spilled->path() << ", freeing " << numberText(freed / 1e6)
+                      << " MB for the solve\n";
     }
     const MemoryEstimate memory = estimateStage(job, "Green's function solve", std::move(parts));
     const bool stageOnly = resetPeakResident();
@@ -94,17 +95,18 @@ void execute(Args& a, Clock::time_point start) {
         nlohmann::json report = bandReport(job, a.flags);
         report["solver"] = solverReport(g.solver, a.solver);
         report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
-        report["green"] = {{"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}},
-                           {"source_index", g.sourceIndex}, {"spilled_band_grids", bool(spilled)}};
-        report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps},
-                               {"solve", secondsSolve}, {"total", total}};
+        report["green"] = {{"source", a.source},
+                           {"source_voxel", {y.x(), y.y(), y.z()}},
+                           {"source_index", g.sourceIndex},
+                           {"spilled_band_grids", bool(spilled)}};
+        report["timings_s"] = {
+            {"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps}, {"solve", secondsSolve}, {"total", total}};
         report["outputs"] = {a.output};
         commitReport(*run.report, report);
     }
     if (!a.flags.model.quiet)
-        std::cerr << "green: " << band.size() << " voxels, PCG (" << preconditionerName(g.solver.preconditioner)
-                  << ") " << g.solver.iterations << " iterations to "
-                  << g.solver.relativeResidual << ", " << total << " s\n";
+        std::cerr << "green: " << band.size() << " voxels, PCG (" << preconditionerName(g.solver.preconditioner) << ") "
+                  << g.solver.iterations << " iterations to " << g.solver.relativeResidual << ", " << total << " s\n";
 }
 
 }  // namespace
@@ -113,8 +115,9 @@ void addGreen(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("green", "Green's function of the GPIS Laplacian from a source point, as a .vdb");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
-                "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json");
+    cmd->footer(
+        "Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
+        "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json");
     onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
 }
 

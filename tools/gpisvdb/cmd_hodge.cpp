@@ -7,10 +7,10 @@
 
 #include "band_job.h"
 #include "commands.h"
-#include "vdb_file.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/output/write_vdb.h"
 #include "gpisvdb/tasks/hodge.h"
+#include "vdb_file.h"
 
 namespace gpisvdb::cli {
 
@@ -33,7 +33,6 @@ std::vector<float> readField(const std::string& spec, const Band& band) {
     return V;
 }
 
-
 struct Args {
     std::string input, output, field, preset, boundary = "neumann";
     BandFlags flags;
@@ -43,11 +42,14 @@ struct Args {
 /// The flags of `gpisvdb hodge`.
 void addFlags(CLI::App& cmd, Args& a) {
     cmd.add_option("INPUT", a.input, kInputHelp)->required();
-    auto* field = cmd.add_option("--field", a.field, "vector field FILE.vdb or FILE.vdb:GRID (Vec3s grid, world units), sampled at the band's voxels");
-    auto* preset = cmd.add_option("--preset", a.preset, "built-in field: rotation (about z through the mu-centroid), gradient (grad_phi z) or mixed (their sum)")
+    auto* field = cmd.add_option("--field", a.field,
+                                 "vector field FILE.vdb or FILE.vdb:GRID (Vec3s grid, world units), sampled at the band's voxels");
+    auto* preset = cmd.add_option("--preset", a.preset,
+                                  "built-in field: rotation (about z through the mu-centroid), gradient (grad_phi z) or mixed (their sum)")
                        ->check(CLI::IsMember({"rotation", "gradient", "mixed"}));
     field->excludes(preset);
-    cmd.add_option("-o,--output", a.output, "output .vdb (band grids, hodge_input, hodge_gradient, hodge_free, hodge_potential)")->required();
+    cmd.add_option("-o,--output", a.output, "output .vdb (band grids, hodge_input, hodge_gradient, hodge_free, hodge_potential)")
+        ->required();
     cmd.add_option("--boundary", a.boundary, "condition on the potential at the band's boundary: neumann (free) or dirichlet (0)")
         ->check(CLI::IsMember({"neumann", "dirichlet"}))
         ->capture_default_str();
@@ -57,7 +59,8 @@ void addFlags(CLI::App& cmd, Args& a) {
 
 /// `gpisvdb hodge` once its flags are parsed.
 void execute(Args& a, Clock::time_point start) {
-    if (a.field.empty() == a.preset.empty()) throw ParameterError("give exactly one of --field FILE.vdb[:GRID] and --preset rotation|gradient|mixed");
+    if (a.field.empty() == a.preset.empty())
+        throw ParameterError("give exactly one of --field FILE.vdb[:GRID] and --preset rotation|gradient|mixed");
     checkPcgOptions(a.solver);
     BandCommand run = startBandCommand(a.input, a.output, a.flags);
     const BandJob& job = run.job;
@@ -66,9 +69,9 @@ void execute(Args& a, Clock::time_point start) {
     // === The field on the band, then the decomposition
     std::vector<float> V;
     if (!a.preset.empty()) {
-        const HodgePreset p = a.preset == "rotation" ? HodgePreset::Rotation
+        const HodgePreset p = a.preset == "rotation"   ? HodgePreset::Rotation
                               : a.preset == "gradient" ? HodgePreset::Gradient
-                                                        : HodgePreset::Mixed;
+                                                       : HodgePreset::Mixed;
         V = hodgePreset(band, p);
     } else {
         V = readField(a.field, band);
@@ -114,20 +117,23 @@ void execute(Args& a, Clock::time_point start) {
         commitReport(*run.report, report);
     }
     if (!a.flags.model.quiet)
-        std::cerr << "hodge: " << band.size() << " voxels, PCG " << r.solver.iterations << " iterations, D_phi V_free / D_phi V = "
-                  << r.divergenceResidual << ", S-cosine " << r.sInnerProduct << ", " << total << " s\n";
+        std::cerr << "hodge: " << band.size() << " voxels, PCG " << r.solver.iterations
+                  << " iterations, D_phi V_free / D_phi V = " << r.divergenceResidual << ", S-cosine " << r.sInnerProduct << ", " << total
+                  << " s\n";
 }
 
 }  // namespace
 
 void addHodge(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("hodge", "Hodge decomposition of a vector field on the GPIS into a gradient and a mu-divergence-free part, as a .vdb");
+    auto* cmd = app.add_subcommand(
+        "hodge", "Hodge decomposition of a vector field on the GPIS into a gradient and a mu-divergence-free part, as a .vdb");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("V = grad_phi psi + V_free with D_phi V_free = 0: (G^T BlockDiag(h^3 T) G) psi = G^T (M x I) V by the PCG.\n"
-                "The two parts are orthogonal in the inner product S = mu^2 T^-1 (paper App. E).\n"
-                "Examples:\n  gpisvdb hodge bunny.obj --preset mixed -o hodge.vdb --sigma 1\n"
-                "  gpisvdb hodge bunny.obj --field wind.vdb:vel -o hodge.vdb --report hodge.json");
+    cmd->footer(
+        "V = grad_phi psi + V_free with D_phi V_free = 0: (G^T BlockDiag(h^3 T) G) psi = G^T (M x I) V by the PCG.\n"
+        "The two parts are orthogonal in the inner product S = mu^2 T^-1 (paper App. E).\n"
+        "Examples:\n  gpisvdb hodge bunny.obj --preset mixed -o hodge.vdb --sigma 1\n"
+        "  gpisvdb hodge bunny.obj --field wind.vdb:vel -o hodge.vdb --report hodge.json");
     onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
 }
 

@@ -27,7 +27,8 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
     LoadedModel model = loadModel(data, mo);
     const double modelSeconds = since(start), modelPeak = peakResidentBytes();
     const auto tPlan = Clock::now();
-    nlohmann::json out = {{"read_seconds", readSeconds}, {"model_seconds", modelSeconds},
+    nlohmann::json out = {{"read_seconds", readSeconds},
+                          {"model_seconds", modelSeconds},
                           {"threads", tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)}};
     const Progress progress = makeProgress(true);  // no bar; Ctrl-C stops the pilot
     DefaultBandPlan plan;
@@ -42,17 +43,27 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
     const BandForecast f = forecastBand(*model.model, model.input.samples, plan, {}, progress);
     const double total = readSeconds + modelSeconds + planSeconds + f.buildSeconds + f.writeSeconds;
     const double peak = std::max(modelPeak, f.peakBytes);
-    out.update({{"voxel_size", plan.options.voxelSize}, {"voxel_size_by_budget", plan.budgeted},
-                {"accuracy_voxel_size", plan.accuracyVoxelSize}, {"accuracy_voxels", plan.accuracyVoxels},
-                {"max_band_voxels", plan.maxBandVoxels}, {"mu_width", plan.resolution.muWidth},
-                {"voxel_size_note", voxelSizeNote(plan)}, {"smoothing", model.smoothing},
+    out.update({{"voxel_size", plan.options.voxelSize},
+                {"voxel_size_by_budget", plan.budgeted},
+                {"accuracy_voxel_size", plan.accuracyVoxelSize},
+                {"accuracy_voxels", plan.accuracyVoxels},
+                {"max_band_voxels", plan.maxBandVoxels},
+                {"mu_width", plan.resolution.muWidth},
+                {"voxel_size_note", voxelSizeNote(plan)},
+                {"smoothing", model.smoothing},
                 {"normals_flipped", model.input.normalsFlipped},
                 {"smoothing_set_by", smoothingSourceName(model.smoothingSource)},
-                {"voxels", f.voxels}, {"evaluated_voxels", f.evaluated}, {"peak_bytes", peak},
-                {"model_peak_bytes", modelPeak}, {"band_peak_bytes", f.peakBytes},
-                {"pilot_voxels", f.pilotVoxels}, {"pilot_seconds", f.pilotSeconds},
-                {"resolution_seconds", planSeconds}, {"band_seconds", f.buildSeconds},
-                {"write_seconds", f.writeSeconds}, {"seconds", total}});
+                {"voxels", f.voxels},
+                {"evaluated_voxels", f.evaluated},
+                {"peak_bytes", peak},
+                {"model_peak_bytes", modelPeak},
+                {"band_peak_bytes", f.peakBytes},
+                {"pilot_voxels", f.pilotVoxels},
+                {"pilot_seconds", f.pilotSeconds},
+                {"resolution_seconds", planSeconds},
+                {"band_seconds", f.buildSeconds},
+                {"write_seconds", f.writeSeconds},
+                {"seconds", total}});
     const auto millions = [](double n) { return numberText(std::round(n / 1e3) / 1e3) + " M"; };
     std::cout << "default band (what `gpisvdb band` with these flags would build; a forecast, docs/band.md#forecast):\n"
               << "  " << voxelSizeNote(plan) << "\n";
@@ -63,13 +74,11 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
                   << millions(plan.accuracyVoxels) << " voxels\n";
     std::cout << "  smoothing:   " << numberText(model.smoothing) << " (set by the " << smoothingSourceName(model.smoothingSource) << ")\n"
               << "  voxels:      about " << millions(f.voxels) << " (" << millions(f.evaluated) << " evaluated)\n"
-              << "  memory:      about " << numberText(peak / 1e9) << " GB at its peak (the model's "
-              << numberText(modelPeak / 1e9) << " GB as measured now, the band's " << numberText(f.peakBytes / 1e9)
-              << " GB)\n"
+              << "  memory:      about " << numberText(peak / 1e9) << " GB at its peak (the model's " << numberText(modelPeak / 1e9)
+              << " GB as measured now, the band's " << numberText(f.peakBytes / 1e9) << " GB)\n"
               << "  time:        about " << numberText(total) << " s on " << out["threads"].get<int>() << " threads: reading "
-              << numberText(readSeconds) << " s, model " << numberText(modelSeconds) << " s and resolution "
-              << numberText(planSeconds) << " s (as measured now), band " << numberText(f.buildSeconds) << " s, .vdb "
-              << numberText(f.writeSeconds) << " s\n";
+              << numberText(readSeconds) << " s, model " << numberText(modelSeconds) << " s and resolution " << numberText(planSeconds)
+              << " s (as measured now), band " << numberText(f.buildSeconds) << " s, .vdb " << numberText(f.writeSeconds) << " s\n";
     return out;
 }
 
@@ -106,8 +115,7 @@ void execute(Args& a) {
         // === The samples (a triangle's or a point's position, normal and their covariances): estimated and
         //     refused before they are made, measured over it (docs/memory.md#info). The input, read in whole
         //     before, is the baseline; no setting makes fewer samples.
-        const MemoryEstimate memory = estimateStageWithin(limit, "sampling of the input", "libraries, the input",
-                                                          makeSamplesBytes(data),
+        const MemoryEstimate memory = estimateStageWithin(limit, "sampling of the input", "libraries, the input", makeSamplesBytes(data),
                                                           [](double, double) { return std::string("raise it"); });
         const bool stageOnly = resetPeakResident();
         const InputSamples s = makeSamples(data, {flags.sigmaRel});
@@ -117,7 +125,11 @@ void execute(Args& a) {
         const double ell = s.samples.lengthScale;
         std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
                   << "samples:      " << s.samples.size() << "\n"
-                  << "length scale: " << ell << (s.isSoup ? " (mean edge length)" : s.lengthScaleGiven ? " (given in the file)" : " (sqrt(area / points))") << "\n"
+                  << "length scale: " << ell
+                  << (s.isSoup             ? " (mean edge length)"
+                      : s.lengthScaleGiven ? " (given in the file)"
+                                           : " (sqrt(area / points))")
+                  << "\n"
                   << "bbox min:     " << lo.transpose() << "\n"
                   << "bbox max:     " << hi.transpose() << "\n"
                   << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"
@@ -125,8 +137,8 @@ void execute(Args& a) {
                   << "skipped:      " << s.degenerateSkipped << " zero-area triangles\n"
                   << "triangulated: " << data.polygonsTriangulated << " polygons with more than 3 corners (fans)\n";
         report = stageReport("samples", memoryStageReport(memory, peak, stageOnly));
-        report["input"] = {{"path", data.path}, {"samples", s.samples.size()},
-                           {"kind", s.isSoup ? "triangle soup" : "oriented point cloud"}};
+        report["input"] = {
+            {"path", data.path}, {"samples", s.samples.size()}, {"kind", s.isSoup ? "triangle soup" : "oriented point cloud"}};
     }
     // (the samples are freed first: the band command holds the input and the model only)
     if (a.forecast) report["forecast"] = forecastDefaultBand(data, readSeconds, a.flags);
@@ -136,12 +148,14 @@ void execute(Args& a) {
 }  // namespace
 
 void addInfo(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("info", "describe an input (samples, length scale, bounding box, what was skipped) "
-                                           "and forecast the default band: voxel size, voxels, memory, time");
+    auto* cmd = app.add_subcommand("info",
+                                   "describe an input (samples, length scale, bounding box, what was skipped) "
+                                   "and forecast the default band: voxel size, voxels, memory, time");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
-                "Example:\n  gpisvdb info bunny.obj --sigma 0.25");
+    cmd->footer(
+        "The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
+        "Example:\n  gpisvdb info bunny.obj --sigma 0.25");
     cmd->callback([&action, a] { action = [a] { execute(*a); }; });
 }
 

@@ -1,6 +1,6 @@
 // gpisvdb mesh FILE.vdb --grid NAME -o OUT.ply|OUT.vtp: the mean surface with a grid sampled at its vertices.
-#include <limits>
 #include <iostream>
+#include <limits>
 
 #include "commands.h"
 #include "common.h"
@@ -53,30 +53,28 @@ void execute(Args& a) {
     // The surface's memory (docs/memory.md#mesh): its parts go as h⁻² (the mesh) to h⁻³ (u − γ over the
     // band), so a band rebuilt at h √(need / available) fits
     const double h = mean->voxelSize()[0];
-    const MemoryEstimate memory = estimateStageWithin(
-        limit, "mean surface", "libraries, the .vdb file", meanSurfaceBytes(*mean, a.iso, components, format == MeshFormat::Vtp),
-        [&](double need, double available) {
-            return "rebuild the band with a voxel size (--voxel-size) of " +
-                   numberText(h * std::sqrt(need / available) * 1.05) + " or larger";
-        });
+    const MemoryEstimate memory =
+        estimateStageWithin(limit, "mean surface", "libraries, the .vdb file",
+                            meanSurfaceBytes(*mean, a.iso, components, format == MeshFormat::Vtp), [&](double need, double available) {
+                                return "rebuild the band with a voxel size (--voxel-size) of " +
+                                       numberText(h * std::sqrt(need / available) * 1.05) + " or larger";
+                            });
     const bool stageOnly = resetPeakResident();
     SurfaceMesh mesh = meanSurface(*mean, a.iso);
-    if (mesh.triangles.empty())
-        throw InputError(a.input + ": the mean field never crosses u = " + std::to_string(a.iso) + " in the band");
+    if (mesh.triangles.empty()) throw InputError(a.input + ": the mean field never crosses u = " + std::to_string(a.iso) + " in the band");
     for (const auto& g : sampled) sampleAtVertices(mesh, *g);
     writeMesh(mesh, out.tempPath(), format);
     const double peak = peakResidentBytes();
     out.commit();
     if (reportOut) {
         nlohmann::json report = stageReport("mesh", memoryStageReport(memory, peak, stageOnly));
-        report["mesh"] = {{"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
-                          {"band_voxels", mean->activeVoxelCount()}};
+        report["mesh"] = {
+            {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()}, {"band_voxels", mean->activeVoxelCount()}};
         report["outputs"] = {a.output};
         commitReport(*reportOut, report);
     }
     if (!a.quiet)
-        std::cerr << "mesh: " << mesh.vertices.size() << " vertices, " << mesh.triangles.size() << " triangles -> "
-                  << a.output << "\n";
+        std::cerr << "mesh: " << mesh.vertices.size() << " vertices, " << mesh.triangles.size() << " triangles -> " << a.output << "\n";
 }
 
 }  // namespace

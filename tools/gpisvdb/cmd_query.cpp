@@ -23,11 +23,10 @@ namespace {
 /// Bytes per point the model's batch evaluation holds: a ValueGradient and, for Barnes–Hut, its Morton order.
 constexpr double kEvaluatedPointBytes = double(sizeof(ValueGradient)) + 16.0;
 
-
 struct Args {
     std::string input, rays, points, mesh, output;
     ModelFlags flags;
-    double iso = std::numeric_limits<double>::quiet_NaN();  // unset: the model's own level
+    double iso = std::numeric_limits<double>::quiet_NaN();   // unset: the model's own level
     double step = std::numeric_limits<double>::quiet_NaN();  // unset: s / 4 (rays), s / 2 (mesh)
     int draws = CollisionOptions{}.draws;
     std::uint64_t seed = 1;
@@ -53,12 +52,10 @@ void addFlags(CLI::App& cmd, Args& a) {
 
 /// `gpisvdb query` once its flags are parsed.
 void execute(Args& a) {
-    if (a.rays.empty() + a.points.empty() + a.mesh.empty() != 2)
-        throw ParameterError("give one of --rays, --points or --mesh");
+    if (a.rays.empty() + a.points.empty() + a.mesh.empty() != 2) throw ParameterError("give one of --rays, --points or --mesh");
     if (!std::isnan(a.iso) && !std::isfinite(a.iso)) throw ParameterError("--iso must be finite");
     if (!std::isnan(a.step) && (!(a.step > 0) || !std::isfinite(a.step))) throw ParameterError("--step must be finite and > 0");
-    if (!a.mesh.empty() && a.flags.model != "winding")
-        throw ParameterError("--mesh draws the winding-number model only (--model winding)");
+    if (!a.mesh.empty() && a.flags.model != "winding") throw ParameterError("--mesh draws the winding-number model only (--model winding)");
     if (a.draws < 1 || a.draws > 10000) throw ParameterError("--draws must be between 1 and 10000");
     const InputData data = readInput(a.input);
     std::vector<Ray> rayList;
@@ -113,31 +110,35 @@ void execute(Args& a) {
         csv << "ox,oy,oz,dx,dy,dz,length,p_inside_origin,p_hit,hit_distance,hit_distance_std\n";
         for (std::size_t i = 0; i < hits.size(); ++i) {
             const Ray& r = rayList[i];
-            csv << r.origin.x() << ',' << r.origin.y() << ',' << r.origin.z() << ',' << r.direction.x() << ','
-                << r.direction.y() << ',' << r.direction.z() << ',' << r.length << ',' << hits[i].insideAtOrigin
-                << ',' << hits[i].hit << ',' << hits[i].expected << ',' << hits[i].stddev << '\n';
+            csv << r.origin.x() << ',' << r.origin.y() << ',' << r.origin.z() << ',' << r.direction.x() << ',' << r.direction.y() << ','
+                << r.direction.z() << ',' << r.length << ',' << hits[i].insideAtOrigin << ',' << hits[i].hit << ',' << hits[i].expected
+                << ',' << hits[i].stddev << '\n';
         }
         section = {{"rays", rayList.size()}, {"step", step}};
     } else if (kind == "points") {
         const std::vector<ValueGradient> values = m.model->evaluate(pointList, progress);
         csv << "x,y,z,p_inside,gamma,stddev\n";
         for (std::size_t i = 0; i < values.size(); ++i)
-            csv << pointList[i].x() << ',' << pointList[i].y() << ',' << pointList[i].z() << ','
-                << insideProbability(values[i], iso) << ',' << values[i].mean[0] << ','
-                << std::sqrt(std::max(values[i].cov(0, 0), 0.0)) << '\n';
+            csv << pointList[i].x() << ',' << pointList[i].y() << ',' << pointList[i].z() << ',' << insideProbability(values[i], iso) << ','
+                << values[i].mean[0] << ',' << std::sqrt(std::max(values[i].cov(0, 0), 0.0)) << '\n';
         section = {{"points", pointList.size()}};
     } else {
         CollisionOptions o;
         o.draws = a.draws, o.seed = a.seed, o.step = step, o.iso = iso;
-        const CollisionResult c = collisionProbability(*m.model, m.input.samples, m.smoothing, meshData->soup->vertices,
-                                                       meshData->soup->triangles, o, progress);
+        const CollisionResult c =
+            collisionProbability(*m.model, m.input.samples, m.smoothing, meshData->soup->vertices, meshData->soup->triangles, o, progress);
         csv << "points,p_collision,standard_error,largest_point_p_inside\n"
             << c.points << ',' << c.probability << ',' << c.standardError << ',' << c.largestInside << '\n';
-        section = {{"mesh", a.mesh}, {"points", c.points}, {"step", step}, {"draws", a.draws}, {"seed", a.seed},
-                   {"p_collision", c.probability}, {"standard_error", c.standardError}};
+        section = {{"mesh", a.mesh},
+                   {"points", c.points},
+                   {"step", step},
+                   {"draws", a.draws},
+                   {"seed", a.seed},
+                   {"p_collision", c.probability},
+                   {"standard_error", c.standardError}};
         if (!a.flags.quiet)
-            std::cerr << "query: P(collision) " << c.probability << " +- " << c.standardError << " over " << a.draws
-                      << " draws, " << c.points << " points on the mesh\n";
+            std::cerr << "query: P(collision) " << c.probability << " +- " << c.standardError << " over " << a.draws << " draws, "
+                      << c.points << " points on the mesh\n";
     }
     csv.close();
     if (!csv) throw OutputError(a.output + ": writing failed (disk full?)");
@@ -154,15 +155,17 @@ void execute(Args& a) {
 }  // namespace
 
 void addQuery(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("query", "where rays first hit the uncertain surface, points' and a mesh's probability of being inside, as CSV");
+    auto* cmd =
+        app.add_subcommand("query", "where rays first hit the uncertain surface, points' and a mesh's probability of being inside, as CSV");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("Columns: --rays: ox,oy,oz,dx,dy,dz,length,p_inside_origin,p_hit,hit_distance,hit_distance_std\n"
-                "(a hit: the ray first enters phi > u within its length; the distance's mean and std given a hit;\n"
-                "Rice's rate of entries, docs/uncertainty.md#ray-queries); --points: x,y,z,p_inside,gamma,stddev;\n"
-                "--mesh: points,p_collision,standard_error,largest_point_p_inside (Monte Carlo over --draws draws;\n"
-                "the winding-number model only).\n"
-                "Example:\n  gpisvdb query bunny.obj --rays rays.csv -o hits.csv --sigma 1");
+    cmd->footer(
+        "Columns: --rays: ox,oy,oz,dx,dy,dz,length,p_inside_origin,p_hit,hit_distance,hit_distance_std\n"
+        "(a hit: the ray first enters phi > u within its length; the distance's mean and std given a hit;\n"
+        "Rice's rate of entries, docs/uncertainty.md#ray-queries); --points: x,y,z,p_inside,gamma,stddev;\n"
+        "--mesh: points,p_collision,standard_error,largest_point_p_inside (Monte Carlo over --draws draws;\n"
+        "the winding-number model only).\n"
+        "Example:\n  gpisvdb query bunny.obj --rays rays.csv -o hits.csv --sigma 1");
     onRun(*cmd, action, a->flags.threads, [a](Clock::time_point) { execute(*a); });
 }
 

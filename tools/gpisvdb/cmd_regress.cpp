@@ -12,9 +12,10 @@ void addRegress(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("regress", "Gaussian-process regression of scalar data on the GPIS (Matern kernel), as a .vdb");
     auto a = std::make_shared<RegressArgs>();
     addRegressFlags(*cmd, *a);
-    cmd->footer("Prior: constant mean (the data mean) + a Matern GP built from the k lowest eigenpairs (-k, default 200).\n"
-                "Data points must lie in the band (on the shape); the eigenvectors are interpolated trilinearly there.\n"
-                "Example:\n  gpisvdb regress bunny.obj --data temperature.csv --nu 1.5 -o regression.vdb --sigma 1");
+    cmd->footer(
+        "Prior: constant mean (the data mean) + a Matern GP built from the k lowest eigenpairs (-k, default 200).\n"
+        "Data points must lie in the band (on the shape); the eigenvectors are interpolated trilinearly there.\n"
+        "Example:\n  gpisvdb regress bunny.obj --data temperature.csv --nu 1.5 -o regression.vdb --sigma 1");
     onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) {
         const RegressionOptions options = regressionOptions(*a);  // nothing runs on a bad flag
         const PointData points = readPointData(a->data);
@@ -30,8 +31,7 @@ void addRegress(CLI::App& app, Action& action) {
         nlohmann::json spectrumStage;
         const EigenResult e = runSpectrum(run.job, a->eigen, run.progress, &spectrumStage);
         const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
-        finishRegress(run.job, *a, options, points, e, spectrumStage, secondsSpectrum, *run.out, run.report.get(),
-                      run.progress, start);
+        finishRegress(run.job, *a, options, points, e, spectrumStage, secondsSpectrum, *run.out, run.report.get(), run.progress, start);
     });
 }
 

@@ -40,7 +40,10 @@ void addFlags(CLI::App& cmd, Args& a) {
     cmd.add_option("--range", a.range, "colour range LO,HI (default: the values' range)")->delimiter(',')->expected(2);
     cmd.add_option("--slice", a.slice, "also show the grid on the plane axis=value, head-on (e.g. z=0)");
     cmd.add_option("--paths", a.paths, "polylines (.vtp, e.g. from 'geodesic --paths') drawn over the surface");
-    cmd.add_option("--view", a.view, "camera azimuth,elevation in degrees (azimuth about +z from +x)")->delimiter(',')->expected(2)->capture_default_str();
+    cmd.add_option("--view", a.view, "camera azimuth,elevation in degrees (azimuth about +z from +x)")
+        ->delimiter(',')
+        ->expected(2)
+        ->capture_default_str();
     cmd.add_option("--size", a.size, "picture width,height in pixels per panel")->delimiter(',')->expected(2)->capture_default_str();
     cmd.add_option("--iso", a.iso, "iso-value u of the mean surface gamma = u (default: the file's 'iso', else 0.5)");
     cmd.add_option("--title", a.title, "title above the picture (default: the grid's name)");
@@ -78,8 +81,7 @@ void execute(Args& a) {
     const auto grid = file.floatGrid(a.grid);
     bool hasMean = false;
     for (const auto& g : *file.grids) hasMean |= g->getName() == "mean" && g->isType<openvdb::FloatGrid>();
-    if (!hasMean && !slice)
-        throw InputError(a.input + ": no 'mean' grid to draw the surface from: show a slice with --slice axis=value");
+    if (!hasMean && !slice) throw InputError(a.input + ": no 'mean' grid to draw the surface from: show a slice with --slice axis=value");
     std::vector<std::vector<Vec3d>> paths;
     if (!a.paths.empty()) paths = readPolylines(a.paths);
     AtomicOutput out(a.output);
@@ -101,14 +103,14 @@ void execute(Args& a) {
     for (const auto& p : parts) fixedBytes += p.second;
     parts.emplace_back("window", pixels * kRenderBytesPerPixel);
     const double h = grid->voxelSize()[0];
-    const MemoryEstimate memory = estimateStageWithin(
-        limit, "render", "libraries, the .vdb file", std::move(parts), [&](double, double available) {
+    const MemoryEstimate memory =
+        estimateStageWithin(limit, "render", "libraries, the .vdb file", std::move(parts), [&](double, double available) {
             const double window = pixels * kRenderBytesPerPixel, surface = fixedBytes - kRenderContextBytes;
             const double scale = available > fixedBytes ? std::sqrt((available - fixedBytes) / window) * 0.95 : 0;
             if (std::floor(a.size[0] * scale) >= 64 && std::floor(a.size[1] * scale) >= 64) {
                 // the window's bytes go as the pixels; --size takes 64 pixels at least
-                return "use --size " + numberText(std::floor(a.size[0] * scale)) + "," +
-                       numberText(std::floor(a.size[1] * scale)) + " or smaller";
+                return "use --size " + numberText(std::floor(a.size[0] * scale)) + "," + numberText(std::floor(a.size[1] * scale)) +
+                       " or smaller";
             }
             if (available > kRenderContextBytes + window)  // the surface's go as h⁻² to h⁻³
                 return "rebuild the band with a voxel size (--voxel-size) of " +
@@ -166,9 +168,10 @@ void addRender(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("render", "a PNG picture of a grid on the mean surface (and a slice), with a colour bar");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("Starts its own Xvfb when no X display answers (tools/setup installs it).\n"
-                "Examples:\n  gpisvdb render green.vdb --grid green --log -o green.png\n"
-                "  gpisvdb render geo.vdb --grid geodesic --paths path.vtp --slice z=0.4 -o geo.png");
+    cmd->footer(
+        "Starts its own Xvfb when no X display answers (tools/setup installs it).\n"
+        "Examples:\n  gpisvdb render green.vdb --grid green --log -o green.png\n"
+        "  gpisvdb render geo.vdb --grid geodesic --paths path.vtp --slice z=0.4 -o geo.png");
     onRun(*cmd, action, a->threads, [a](Clock::time_point) { execute(*a); });
 }
 

@@ -26,7 +26,8 @@ void addFlags(CLI::App& cmd, Args& a) {
     cmd.add_option("FILE", a.input, "a .vdb written by gpisvdb")->required();
     cmd.add_option("--at", a.at, std::string(kInputHelp) + " to sample at")->required();
     cmd.add_option("--grid", a.grids, "grid(s) to sample (float or vec3; default: all of them)");
-    cmd.add_option("-o,--output", a.output, "output, .ply or .vtp: the input's vertices (and triangles) with one value per grid")->required();
+    cmd.add_option("-o,--output", a.output, "output, .ply or .vtp: the input's vertices (and triangles) with one value per grid")
+        ->required();
     cmd.add_option("--threads", a.threads, "worker threads (0 = all cores)")->capture_default_str();
     cmd.add_flag("--quiet", a.quiet, "no summary line");
     addStageFlags(cmd, a.stage);
@@ -88,13 +89,12 @@ void execute(Args& a) {
     out.commit();
     if (reportOut) {
         nlohmann::json report = stageReport("sample", memoryStageReport(memory, peak, stageOnly));
-        report["sample"] = {{"points", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
-                            {"grids", grids.size()}, {"components", components}};
+        report["sample"] = {
+            {"points", mesh.vertices.size()}, {"triangles", mesh.triangles.size()}, {"grids", grids.size()}, {"components", components}};
         report["outputs"] = {a.output};
         commitReport(*reportOut, report);
     }
-    if (!a.quiet)
-        std::cerr << "sample: " << grids.size() << " grid(s) at " << mesh.vertices.size() << " points -> " << a.output << "\n";
+    if (!a.quiet) std::cerr << "sample: " << grids.size() << " grid(s) at " << mesh.vertices.size() << " points -> " << a.output << "\n";
 }
 
 }  // namespace
@@ -103,8 +103,9 @@ void addSample(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("sample", "sample grids of a .vdb at the vertices or points of an input (.ply/.vtp)");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("Values are trilinear in world space; points outside a grid's band get its background value.\n"
-                "Example:\n  gpisvdb sample green.vdb --at bunny.obj --grid green --grid stddev -o bunny_green.ply");
+    cmd->footer(
+        "Values are trilinear in world space; points outside a grid's band get its background value.\n"
+        "Example:\n  gpisvdb sample green.vdb --at bunny.obj --grid green --grid stddev -o bunny_green.ply");
     onRun(*cmd, action, a->threads, [a](Clock::time_point) { execute(*a); });
 }
 

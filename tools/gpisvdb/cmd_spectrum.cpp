@@ -40,15 +40,13 @@ void execute(SpectrumArgs& a, Clock::time_point start) {
         nlohmann::json report = bandReport(job, a.flags);
         report["spectrum"] = spectrumReport(e);
         report["memory"]["stages"] = {{"spectrum", memoryStage}};
-        report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve},
-                               {"total", total}};
+        report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve}, {"total", total}};
         report["outputs"] = {a.output};
         commitReport(*run.report, report);
     }
     if (!a.flags.model.quiet)
-        std::cerr << "spectrum: " << band.size() << " voxels, " << e.values.size() << " eigenpairs, lambda "
-                  << e.values(0) << " ... " << e.values(e.values.size() - 1) << ", max residual "
-                  << e.residuals.maxCoeff() << ", " << total << " s\n";
+        std::cerr << "spectrum: " << band.size() << " voxels, " << e.values.size() << " eigenpairs, lambda " << e.values(0) << " ... "
+                  << e.values(e.values.size() - 1) << ", max residual " << e.residuals.maxCoeff() << ", " << total << " s\n";
 }
 
 }  // namespace
@@ -57,9 +55,10 @@ void addSpectrum(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("spectrum", "lowest eigenpairs of the GPIS Laplacian (L u = lambda M u), as a .vdb");
     auto a = std::make_shared<SpectrumArgs>();
     addSpectrumFlags(*cmd, *a, "output .vdb (band grids and eigen_000, eigen_001, ...)");
-    cmd->footer("Eigenvectors are M-orthonormal (sum of u_i u_j mu h^3 = delta_ij), u = 0 outside the band; eigenvalues\n"
-                "(world units^-2) ascending in the report (spectrum.eigenvalues, spectrum.residuals) and the file metadata.\n"
-                "Example:\n  gpisvdb spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --report spectrum.json");
+    cmd->footer(
+        "Eigenvectors are M-orthonormal (sum of u_i u_j mu h^3 = delta_ij), u = 0 outside the band; eigenvalues\n"
+        "(world units^-2) ascending in the report (spectrum.eigenvalues, spectrum.residuals) and the file metadata.\n"
+        "Example:\n  gpisvdb spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --report spectrum.json");
     onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
 }
 

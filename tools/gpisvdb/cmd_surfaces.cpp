@@ -29,8 +29,8 @@ std::string surfaceFileName(int draw, MeshFormat format) {
 /// The mean surface and up to three draws side by side, each coloured by the std of φ (sampled from the band), as
 /// a PNG at `path`; its memory estimated and refused before VTK allocates (the render's parts, render_memory.h).
 /// Returns the report's memory stage.
-nlohmann::json drawPicture(const BandJob& job, const openvdb::FloatGrid::Ptr& meanGrid, std::vector<SurfaceMesh>& draws,
-                           int firstDraw, const std::string& path) {
+nlohmann::json drawPicture(const BandJob& job, const openvdb::FloatGrid::Ptr& meanGrid, std::vector<SurfaceMesh>& draws, int firstDraw,
+                           const std::string& path) {
     const Band& band = job.result.band;
     SurfaceMesh mean = meanSurface(*meanGrid, band.iso);
     auto stddev = drawGrid(band, band.stddev);
@@ -61,7 +61,6 @@ nlohmann::json drawPicture(const BandJob& job, const openvdb::FloatGrid::Ptr& me
     return memoryStageReport(memory, peakResidentBytes(), stageOnly);
 }
 
-
 struct Args {
     std::string input, dir, format = "ply", picture;
     SurfaceDrawOptions draws;
@@ -75,13 +74,11 @@ void addFlags(CLI::App& cmd, Args& a) {
     cmd.add_option("-n,--count", a.draws.count, "number of draws (1 to 10000)")->capture_default_str();
     cmd.add_option("--seed", a.draws.seed, "random seed: draw k is the same for a seed whatever n, --first or --threads")
         ->capture_default_str();
-    cmd.add_option("--first", a.draws.firstDraw, "index of the first draw (draws --first ... --first + n - 1)")
-        ->capture_default_str();
+    cmd.add_option("--first", a.draws.firstDraw, "index of the first draw (draws --first ... --first + n - 1)")->capture_default_str();
     cmd.add_option("--format", a.format, "mesh format: ply (binary, the draw in its header comment) or vtp")
         ->check(CLI::IsMember({"ply", "vtp"}))
         ->capture_default_str();
-    cmd.add_option("--draw-beta", a.draws.openingRatio,
-                   "the draws' Barnes-Hut opening ratio (> 1; larger is more accurate and slower)")
+    cmd.add_option("--draw-beta", a.draws.openingRatio, "the draws' Barnes-Hut opening ratio (> 1; larger is more accurate and slower)")
         ->capture_default_str();
     cmd.add_option("--picture", a.picture,
                    "also a PNG: the mean surface and the first three draws side by side, coloured by the std of phi");
@@ -91,13 +88,13 @@ void addFlags(CLI::App& cmd, Args& a) {
 /// `gpisvdb surfaces` once its flags are parsed.
 void execute(Args& a, Clock::time_point start) {
     if (a.flags.model.model != "winding")
-        throw ParameterError("plausible surfaces are drawn from the winding-number model only (--model winding): "
-                             "the regression model's draws would need its posterior's factor");
+        throw ParameterError(
+            "plausible surfaces are drawn from the winding-number model only (--model winding): "
+            "the regression model's draws would need its posterior's factor");
     if (a.draws.count < 1 || a.draws.count > 10000) throw ParameterError("-n must be between 1 and 10000");
     if (a.draws.firstDraw < 0 || a.draws.firstDraw > std::numeric_limits<int>::max() - a.draws.count)
         throw ParameterError("--first must be >= 0, and --first + n must fit an int");
-    if (!(a.draws.openingRatio > 1) || !std::isfinite(a.draws.openingRatio))
-        throw ParameterError("--draw-beta must be finite and > 1");
+    if (!(a.draws.openingRatio > 1) || !std::isfinite(a.draws.openingRatio)) throw ParameterError("--draw-beta must be finite and > 1");
     const MeshFormat format = a.format == "ply" ? MeshFormat::Ply : MeshFormat::Vtp;
     const InputData data = readInput(a.input);
     AtomicDirectory out(a.dir);
@@ -139,15 +136,14 @@ void execute(Args& a, Clock::time_point start) {
         progress.update("meshes", double(k) / n);
         const int draw = a.draws.firstDraw + k;
         SurfaceMesh mesh = meanSurface(*drawGrid(band, fields[std::size_t(k)]), band.iso);
-        mesh.comment = "gpisvdb plausible surface: draw " + std::to_string(draw) + " of seed " +
-                       std::to_string(a.draws.seed);
+        mesh.comment = "gpisvdb plausible surface: draw " + std::to_string(draw) + " of seed " + std::to_string(a.draws.seed);
         const std::string name = surfaceFileName(draw, format);
         writeMesh(mesh, (tmp / name).string(), format);
         const double area = surfaceArea(mesh);
         areaSum += area;
         areaSum2 += area * area;
-        meshes.push_back({{"draw", draw}, {"file", name}, {"vertices", mesh.vertices.size()},
-                          {"triangles", mesh.triangles.size()}, {"area", area}});
+        meshes.push_back(
+            {{"draw", draw}, {"file", name}, {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()}, {"area", area}});
         if (!a.picture.empty() && shown.size() < 3) shown.push_back(std::move(mesh));
     }
     progress.update("meshes", 1.0);
@@ -164,19 +160,23 @@ void execute(Args& a, Clock::time_point start) {
         nlohmann::json report = bandReport(job, a.flags);
         report["memory"]["stages"] = {{"surfaces", memoryStageReport(memory, peak, stageOnly)}};
         if (!pictureStage.is_null()) report["memory"]["stages"]["picture"] = pictureStage;
-        report["surfaces"] = {{"count", n}, {"seed", a.draws.seed}, {"first", a.draws.firstDraw},
-                              {"draw_beta", a.draws.openingRatio}, {"expected_area", band.mass()},
-                              {"mean_area", meanArea}, {"area_std", areaStd}, {"meshes", meshes}};
-        report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"draws", secondsDraws},
-                               {"meshes", secondsMeshes}, {"total", total}};
+        report["surfaces"] = {{"count", n},
+                              {"seed", a.draws.seed},
+                              {"first", a.draws.firstDraw},
+                              {"draw_beta", a.draws.openingRatio},
+                              {"expected_area", band.mass()},
+                              {"mean_area", meanArea},
+                              {"area_std", areaStd},
+                              {"meshes", meshes}};
+        report["timings_s"] = {
+            {"model", job.secondsModel}, {"band", job.secondsBand}, {"draws", secondsDraws}, {"meshes", secondsMeshes}, {"total", total}};
         report["outputs"] = {a.dir};
         if (!a.picture.empty()) report["outputs"].push_back(a.picture);
         commitReport(*reportOut, report);
     }
     if (!a.flags.model.quiet)
-        std::cerr << "surfaces: " << n << " draws on " << band.size() << " voxels, area " << numberText(meanArea)
-                  << " +- " << numberText(areaStd) << " (expected " << numberText(band.mass()) << ") -> "
-                  << a.dir << ", " << total << " s\n";
+        std::cerr << "surfaces: " << n << " draws on " << band.size() << " voxels, area " << numberText(meanArea) << " +- "
+                  << numberText(areaStd) << " (expected " << numberText(band.mass()) << ") -> " << a.dir << ", " << total << " s\n";
 }
 
 }  // namespace
@@ -185,10 +185,11 @@ void addSurfaces(CLI::App& app, Action& action) {
     auto* cmd = app.add_subcommand("surfaces", "plausible surfaces: meshes of n draws of the GPIS, in a directory");
     auto a = std::make_shared<Args>();
     addFlags(*cmd, *a);
-    cmd->footer("Each draw is one sample of the noise of the input (positions and normals), mapped through the\n"
-                "linearised model: its field gamma + J eps is evaluated on the band and meshed at u, to\n"
-                "DIR/surface_<k>.ply (k the draw's index). The winding-number model only.\n"
-                "Example:\n  gpisvdb surfaces bunny.obj -n 8 --seed 3 --sigma 2 -o bunny-draws/");
+    cmd->footer(
+        "Each draw is one sample of the noise of the input (positions and normals), mapped through the\n"
+        "linearised model: its field gamma + J eps is evaluated on the band and meshed at u, to\n"
+        "DIR/surface_<k>.ply (k the draw's index). The winding-number model only.\n"
+        "Example:\n  gpisvdb surfaces bunny.obj -n 8 --seed 3 --sigma 2 -o bunny-draws/");
     onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
 }
 

@@ -20,9 +20,9 @@
 #include <mutex>
 #include <random>
 #include <set>
-#include <vector>
-#include <thread>
 #include <tbb/global_control.h>
+#include <thread>
+#include <vector>
 
 #include "gpisvdb/app/parameter_names.h"
 #include "gpisvdb/core/errors.h"
@@ -106,8 +106,7 @@ void watchdog(int signals, int wakeRead, std::string message) {
     while (::poll(fds, 2, -1) < 0 && errno == EINTR) {
     }
     signalfd_siginfo info;
-    if ((fds[0].revents & POLLIN) && ::read(signals, &info, sizeof info) == ssize_t(sizeof info))
-        noteSignal(int(info.ssi_signo));
+    if ((fds[0].revents & POLLIN) && ::read(signals, &info, sizeof info) == ssize_t(sizeof info)) noteSignal(int(info.ssi_signo));
     std::this_thread::sleep_for(std::chrono::milliseconds(kInterruptGraceMs));
     Temporaries& t = temporaries();
     t.mutex.lock();  // held until _exit: no output can be registered, committed or left behind meanwhile
@@ -156,8 +155,7 @@ void installInterruptHandler(const std::string& program) {
     int fds[2];
     if (signals >= 0 && ::pipe(fds) == 0) {
         gWakeWrite = fds[1];
-        std::thread(watchdog, signals, fds[0],
-                    program + ": interrupted, no output written (stopped in a step that does not poll)\n")
+        std::thread(watchdog, signals, fds[0], program + ": interrupted, no output written (stopped in a step that does not poll)\n")
             .detach();
         std::signal(SIGINT, onSignal);
         std::signal(SIGTERM, onSignal);
@@ -169,24 +167,31 @@ bool interruptRequested() { return gInterrupted; }
 int interruptSignal() { return gSignal; }
 
 void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
-    app.add_option("--sigma", f.sigmaRel, "noise std σ of vertices/points, relative to the length scale ℓ (> 0)")
-        ->capture_default_str();
+    app.add_option("--sigma", f.sigmaRel, "noise std σ of vertices/points, relative to the length scale ℓ (> 0)")->capture_default_str();
     if (withModel) {
-        app.add_option("--smoothing", f.smoothingRel, "kernel smoothing s, relative to ℓ (regression: to the training spacing) (> 0)")->capture_default_str();
+        app.add_option("--smoothing", f.smoothingRel, "kernel smoothing s, relative to ℓ (regression: to the training spacing) (> 0)")
+            ->capture_default_str();
         app.add_option("--noise-smoothing", f.noiseSmoothing,
                        "winding model: s is at least this × the samples' median position std, so that it follows the noise "
                        "where samples are denser than it (>= 0; 0: --smoothing × ℓ alone)")
             ->capture_default_str();
-        app.add_option("--beta", f.beta, "Barnes-Hut accuracy: a node stands in for its samples beyond beta × its radius (2 × beta for the covariance near the query) (> 1)")
+        app.add_option("--beta", f.beta,
+                       "Barnes-Hut accuracy: a node stands in for its samples beyond beta × its radius (2 × beta for the covariance near "
+                       "the query) (> 1)")
             ->capture_default_str();
         app.add_flag("--exact", f.exact, "use the direct O(n) sum instead of Barnes-Hut");
-        app.add_option("--model", f.model, "GPIS model: winding (linearized winding number, paper Eq. 5) or regression (GP regression on labels, App. F; surface at phi = 0)")
+        app.add_option("--model", f.model,
+                       "GPIS model: winding (linearized winding number, paper Eq. 5) or regression (GP regression on labels, App. F; "
+                       "surface at phi = 0)")
             ->check(CLI::IsMember({"winding", "regression"}))
             ->capture_default_str();
-        app.add_option("--labels", f.labels, "regression: training file x,y,z,label[,noise] (+1 inside, 0 on, -1 outside); default: generated from the input");
-        app.add_option("--training-points", f.trainingPoints, "regression: surface points kept from the input (farthest-point sampling), 3 labels each")
+        app.add_option("--labels", f.labels,
+                       "regression: training file x,y,z,label[,noise] (+1 inside, 0 on, -1 outside); default: generated from the input");
+        app.add_option("--training-points", f.trainingPoints,
+                       "regression: surface points kept from the input (farthest-point sampling), 3 labels each")
             ->capture_default_str();
-        app.add_option("--training-offset", f.trainingOffset, "regression: inside/outside label offset along the normal, relative to the training spacing sqrt(area/n)")
+        app.add_option("--training-offset", f.trainingOffset,
+                       "regression: inside/outside label offset along the normal, relative to the training spacing sqrt(area/n)")
             ->capture_default_str();
         app.add_option("--label-noise", f.labelNoise, "regression: std of the labels (>= 0)")->capture_default_str();
     }

@@ -1,7 +1,7 @@
 #pragma once
 // Shared pieces of the command line: model flags, outputs written atomically, progress and Ctrl-C.
-#include <CLI/CLI.hpp>
 #include <chrono>
+#include <CLI/CLI.hpp>
 #include <functional>
 #include <memory>
 #include <string>
@@ -16,18 +16,18 @@ namespace gpisvdb::cli {
 
 /// Flags every subcommand that builds a GPIS shares (same names and meanings everywhere).
 struct ModelFlags {
-    double sigmaRel = kDefaultSigmaRel;  ///< --sigma: vertex/point noise std relative to ℓ
+    double sigmaRel = kDefaultSigmaRel;          ///< --sigma: vertex/point noise std relative to ℓ
     double smoothingRel = kDefaultSmoothingRel;  ///< --smoothing: kernel smoothing s relative to ℓ
-    double noiseSmoothing = kNoiseSmoothing;  ///< --noise-smoothing: s at least this × the median position std
-    double beta = BarnesHutOptions{}.beta;  ///< --beta: Barnes–Hut opening criterion
-    bool exact = false;         ///< --exact: direct O(n) sums instead of Barnes–Hut
-    std::string model = "winding";  ///< --model: winding (paper Eq. 5) or regression (App. F)
-    std::string labels;         ///< --labels: x,y,z,label[,noise] training file for the regression model
-    std::size_t trainingPoints = 300;  ///< --training-points: surface points kept for generated labels
-    double trainingOffset = 0.5;       ///< --training-offset: inside/outside offset, relative to the training spacing
-    double labelNoise = 0.05;          ///< --label-noise: std of the labels
-    int threads = 0;            ///< --threads: 0 = all cores
-    bool quiet = false;         ///< --quiet: no progress bar
+    double noiseSmoothing = kNoiseSmoothing;     ///< --noise-smoothing: s at least this × the median position std
+    double beta = BarnesHutOptions{}.beta;       ///< --beta: Barnes–Hut opening criterion
+    bool exact = false;                          ///< --exact: direct O(n) sums instead of Barnes–Hut
+    std::string model = "winding";               ///< --model: winding (paper Eq. 5) or regression (App. F)
+    std::string labels;                          ///< --labels: x,y,z,label[,noise] training file for the regression model
+    std::size_t trainingPoints = 300;            ///< --training-points: surface points kept for generated labels
+    double trainingOffset = 0.5;                 ///< --training-offset: inside/outside offset, relative to the training spacing
+    double labelNoise = 0.05;                    ///< --label-noise: std of the labels
+    int threads = 0;                             ///< --threads: 0 = all cores
+    bool quiet = false;                          ///< --quiet: no progress bar
 };
 void addModelFlags(CLI::App& app, ModelFlags& flags, bool withModel);
 
@@ -92,7 +92,6 @@ private:
 Progress makeProgress(bool quiet);
 /// The command line as typed (recorded in output metadata).
 std::string& commandLine();
-
 
 /// Runs a parsed command: an exception becomes one message for `report` ("error: …", the engine's fields named by
 /// their flags (app/parameter_names.h); "interrupted, no output written" with interrupted = true; or "internal

@@ -40,7 +40,8 @@ void addGeodesicFlags(CLI::App& cmd_, GeodesicArgs& args) {
     cmd->get_option("--target")->delimiter(',');
     cmd->add_option("-o,--output", a->output, "output .vdb (band grids and 'geodesic')")->required();
     cmd->add_option("--paths", a->paths, "shortest paths from the targets, as polylines (.vtp, .obj or .json)");
-    cmd->add_flag("--stop-at-targets", a->stopAtTargets, "stop the march once every target is reached (faster; 'geodesic' is then partial)");
+    cmd->add_flag("--stop-at-targets", a->stopAtTargets,
+                  "stop the march once every target is reached (faster; 'geodesic' is then partial)");
     addBandFlags(*cmd, a->flags);
 }
 
@@ -55,9 +56,8 @@ GeodesicRequest geodesicRequest(const GeodesicArgs& a, bool openPaths) {
     return r;
 }
 
-void finishGeodesic(const BandJob& job, const GeodesicArgs& args, GeodesicRequest& request, AtomicOutput& out,
-                    AtomicOutput* report, const Progress& progress, std::chrono::steady_clock::time_point start,
-                    const nlohmann::json& extra) {
+void finishGeodesic(const BandJob& job, const GeodesicArgs& args, GeodesicRequest& request, AtomicOutput& out, AtomicOutput* report,
+                    const Progress& progress, std::chrono::steady_clock::time_point start, const nlohmann::json& extra) {
     const Band& band = job.result.band;
     // === U by fast marching, paths by backtracking
     const auto tSolve = Clock::now();
@@ -79,8 +79,9 @@ void finishGeodesic(const BandJob& job, const GeodesicArgs& args, GeodesicReques
     const double marchPeak = peakResidentBytes();
     const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
     if (g.march.accepted == g.sourceIndex.size() && band.size() > g.sourceIndex.size() && !args.stopAtTargets)
-        throw Error("the march did not leave the sources: their stencils reach no band voxel (a band too thin "
-                    "for its stencils; try a smaller --voxel-size or a larger --sigma)");
+        throw Error(
+            "the march did not leave the sources: their stencils reach no band voxel (a band too thin "
+            "for its stencils; try a smaller --voxel-size or a larger --sigma)");
 
     // === Outputs
     std::vector<float> U(band.size());
@@ -104,22 +105,28 @@ void finishGeodesic(const BandJob& job, const GeodesicArgs& args, GeodesicReques
         for (std::size_t k = 0; k < g.paths.size(); ++k) {
             const GeodesicPath& p = g.paths[k];
             paths.push_back({{"target", {request.targets[k].x(), request.targets[k].y(), request.targets[k].z()}},
-                             {"target_index", g.targetIndex[k]}, {"distance", finiteOrNull(p.distance)},
-                             {"length", p.length}, {"points", p.points.size()}, {"reached_source", p.reachedSource}});
+                             {"target_index", g.targetIndex[k]},
+                             {"distance", finiteOrNull(p.distance)},
+                             {"length", p.length},
+                             {"points", p.points.size()},
+                             {"reached_source", p.reachedSource}});
         }
         nlohmann::json src = nlohmann::json::array();
         for (std::size_t k = 0; k < request.sources.size(); ++k) {
             const openvdb::Coord c = band.coord[g.sourceIndex[k]];
             src.push_back({{"point", {request.sources[k].x(), request.sources[k].y(), request.sources[k].z()}},
-                           {"voxel", {c.x(), c.y(), c.z()}}, {"index", g.sourceIndex[k]}});
+                           {"voxel", {c.x(), c.y(), c.z()}},
+                           {"index", g.sourceIndex[k]}});
         }
         json["geodesic"] = {{"method", "Hamiltonian fast marching on Selling stencils, first order"},
-                              {"reached", g.march.accepted}, {"unreached", g.march.unreached},
-                              {"stopped_at_targets", g.march.stoppedEarly}, {"max_distance", farthest},
-                              {"sources", src}, {"paths", paths}};
+                            {"reached", g.march.accepted},
+                            {"unreached", g.march.unreached},
+                            {"stopped_at_targets", g.march.stoppedEarly},
+                            {"max_distance", farthest},
+                            {"sources", src},
+                            {"paths", paths}};
         json["memory"]["stages"] = {{"geodesic", memoryStageReport(memory, marchPeak, stageOnly)}};
-        json["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve},
-                               {"total", total}};
+        json["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve}, {"total", total}};
         json["outputs"] = {args.output};
         if (!args.paths.empty()) json["outputs"].push_back(args.paths);
         for (auto it = extra.begin(); it != extra.end(); ++it) json[it.key()] = it.value();

@@ -32,8 +32,7 @@ GeodesicRequest geodesicRequest(const GeodesicArgs& args, bool openPaths = true)
 
 /// The march on the job's band, the paths by backtracking, the .vdb, the paths file and the report (with `extra`
 /// merged into it), committed in that order.
-void finishGeodesic(const BandJob& job, const GeodesicArgs& args, GeodesicRequest& request, AtomicOutput& out,
-                    AtomicOutput* report, const Progress& progress, std::chrono::steady_clock::time_point start,
-                    const nlohmann::json& extra = {});
+void finishGeodesic(const BandJob& job, const GeodesicArgs& args, GeodesicRequest& request, AtomicOutput& out, AtomicOutput* report,
+                    const Progress& progress, std::chrono::steady_clock::time_point start, const nlohmann::json& extra = {});
 
 }  // namespace gpisvdb::cli

@@ -13,10 +13,11 @@ int main(int argc, char** argv) {
     CLI::App app{"gpisvdb: geometry processing on Gaussian Process Implicit Surfaces (GPIS), on OpenVDB"};
     app.set_version_flag("--version", std::string("gpisvdb ") + GPISVDB_VERSION);
     app.require_subcommand(1);
-    app.footer("Run 'gpisvdb COMMAND --help' for the flags and examples of each command.\n"
-               "Exit codes: 0 success, 1 error (one line on stderr, no output left behind), 2 usage error,\n"
-               "130 interrupted (SIGINT, Ctrl-C), 143 terminated (SIGTERM): stops within a second, no output left behind.\n"
-               "Example:\n  gpisvdb demo -o demo-output");
+    app.footer(
+        "Run 'gpisvdb COMMAND --help' for the flags and examples of each command.\n"
+        "Exit codes: 0 success, 1 error (one line on stderr, no output left behind), 2 usage error,\n"
+        "130 interrupted (SIGINT, Ctrl-C), 143 terminated (SIGTERM): stops within a second, no output left behind.\n"
+        "Example:\n  gpisvdb demo -o demo-output");
     cli::Action action;
     cli::addInfo(app, action);
     cli::addEvaluate(app, action);
@@ -45,9 +46,7 @@ int main(int argc, char** argv) {
     }
     return cli::runCommand(action, [](const std::string& message, bool interrupted) {
         cli::removeCommittedOutputs();  // all of a command's outputs or none
-        if (interrupted)
-            cli::reportInterrupted("gpisvdb: " + message + "\n");
-        else
-            std::cerr << "gpisvdb: " << message << "\n";
+        if (interrupted) cli::reportInterrupted("gpisvdb: " + message + "\n");
+        else std::cerr << "gpisvdb: " << message << "\n";
     });
 }

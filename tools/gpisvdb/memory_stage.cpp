@@ -18,8 +18,7 @@ double parseBytes(const std::string& s) {
     if (unit == "K" || unit == "k") v *= 1024.0;
     else if (unit == "M" || unit == "m") v *= 1024.0 * 1024.0;
     else if (unit == "G" || unit == "g") v *= 1024.0 * 1024.0 * 1024.0;
-    else if (!unit.empty() || end == s.c_str())
-        throw ParameterError("--max-memory: expected bytes like 8G, 512M or 1e9, got '" + s + "'");
+    else if (!unit.empty() || end == s.c_str()) throw ParameterError("--max-memory: expected bytes like 8G, 512M or 1e9, got '" + s + "'");
     if (!(v > 0) || !std::isfinite(v)) throw ParameterError("--max-memory must be > 0");
     return v;
 }
@@ -51,8 +50,11 @@ MemoryEstimate estimateStageWithin(double limit, const std::string& stage, const
 nlohmann::json memoryStageReport(const MemoryEstimate& estimate, double measuredPeak, bool stageOnly) {
     nlohmann::json parts = nlohmann::json::object();
     for (const auto& [name, bytes] : estimate.parts) parts[name] = bytes;
-    return {{"baseline_bytes", estimate.baselineBytes}, {"parts_bytes", parts}, {"estimate_bytes", estimate.peakBytes()},
-            {"measured_peak_bytes", measuredPeak}, {"stage_only", stageOnly},
+    return {{"baseline_bytes", estimate.baselineBytes},
+            {"parts_bytes", parts},
+            {"estimate_bytes", estimate.peakBytes()},
+            {"measured_peak_bytes", measuredPeak},
+            {"stage_only", stageOnly},
             {"estimate_error", measuredPeak > 0 ? estimate.peakBytes() / measuredPeak - 1 : 0.0}};
 }
 

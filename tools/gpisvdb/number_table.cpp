@@ -23,7 +23,8 @@ std::vector<std::vector<double>> readNumberRows(const std::string& path, std::si
         std::vector<std::string> tokens;
         for (std::string w; words >> w;) tokens.push_back(w);
         if (tokens.empty()) continue;
-        if (tokens.size() < columns || (tokens.size() > columns && !extraIgnored)) throw InputError(path + ":" + std::to_string(ln) + ": expected '" + layout + "'");
+        if (tokens.size() < columns || (tokens.size() > columns && !extraIgnored))
+            throw InputError(path + ":" + std::to_string(ln) + ": expected '" + layout + "'");
         std::vector<double> row(columns);
         for (std::size_t d = 0; d < columns; ++d) {
             char* end = nullptr;

@@ -16,8 +16,7 @@ void addRegressFlags(CLI::App& cmd_, RegressArgs& args) {
     cmd->add_option("INPUT", a->input, kInputHelp)->required();
     cmd->add_option("--data", a->data, "CSV of x,y,z,value[,noise] (world units; noise: std of the value, 0 = exact)")->required();
     cmd->add_option("-o,--output", a->output, "output .vdb (band grids, regression_mean, regression_variance)")->required();
-    cmd->add_option("--nu", a->nu, "Matern smoothness: 0.5, 1.5, 2.5, any value > 0, or inf (squared exponential)")
-        ->capture_default_str();
+    cmd->add_option("--nu", a->nu, "Matern smoothness: 0.5, 1.5, 2.5, any value > 0, or inf (squared exponential)")->capture_default_str();
     cmd->add_option("--kappa", a->kappa, "Matern length scale kappa (world units, > 0; default 0.1 sqrt(expected area))");
     cmd->add_option("--amplitude", a->amplitude, "prior variance (data units^2, > 0; default the variance of the values)");
     addEigenFlags(*cmd, a->eigen);
@@ -49,9 +48,8 @@ RegressionOptions regressionOptions(const RegressArgs& a) {
     return ro;
 }
 
-MemoryEstimate estimateRegression(const BandJob& job, const RegressionOptions& options, const PointData& points,
-                                  std::size_t voxels, int k, std::vector<std::pair<std::string, double>> ahead,
-                                  const std::string& stage, const std::string& held) {
+MemoryEstimate estimateRegression(const BandJob& job, const RegressionOptions& options, const PointData& points, std::size_t voxels, int k,
+                                  std::vector<std::pair<std::string, double>> ahead, const std::string& stage, const std::string& held) {
     std::vector<std::pair<std::string, double>> parts = std::move(ahead);
     double dataBytes = 0;  // the features and the solve go with the data points and k, not the band
     for (auto& p : regressionBytes(voxels, points, k, options)) {
@@ -62,11 +60,10 @@ MemoryEstimate estimateRegression(const BandJob& job, const RegressionOptions& o
     const std::size_t m = points.value.size();
     return estimateStageWithin(job.maxMemory, stage, held, std::move(parts), [&](double need, double available) {
         if (dataBytes >= 0.9 * available)
-            return "use fewer data points (--data holds " + std::to_string(m) + ") or fewer eigenpairs (-k " +
-                   std::to_string(k) + ")";
+            return "use fewer data points (--data holds " + std::to_string(m) + ") or fewer eigenpairs (-k " + std::to_string(k) + ")";
         // The rest (the eigenvectors, the posterior on the band, the gathered band) goes as h⁻³
-        return "use a voxel size (--voxel-size) of " +
-               numberText(h * std::cbrt((need - dataBytes) / (available - dataBytes)) * 1.1) + " or larger";
+        return "use a voxel size (--voxel-size) of " + numberText(h * std::cbrt((need - dataBytes) / (available - dataBytes)) * 1.1) +
+               " or larger";
     });
 }
 
@@ -77,8 +74,8 @@ void finishRegress(const BandJob& job, const RegressArgs& args, const Regression
     const Band& band = job.result.band;
     // The regression's own vectors beside the eigenpairs, estimated again now that they are held (the command
     // refused it before the eigen solver ran: estimateRegression), and measured over them (docs/memory.md#regression)
-    const MemoryEstimate regressionMemory = estimateRegression(job, options, points, band.size(), int(e.values.size()), {},
-                                                               "regression", "libraries, input, band, eigenpairs");
+    const MemoryEstimate regressionMemory =
+        estimateRegression(job, options, points, band.size(), int(e.values.size()), {}, "regression", "libraries, input, band, eigenpairs");
     const bool regressionOnly = resetPeakResident();
     const auto tRegress = Clock::now();
     progress.update("regression", 0);
@@ -94,8 +91,8 @@ void finishRegress(const BandJob& job, const RegressArgs& args, const Regression
     meta.insertMeta("regression_data", openvdb::StringMetadata(args.data));
     meta.insertMeta("regression_points", openvdb::Int64Metadata(openvdb::Int64(points.value.size())));
     meta.insertMeta("regression_eigenpairs", openvdb::Int32Metadata(int(e.values.size())));
-    writeBandVdb(band, out.tempPath(), meta,
-                 {{"regression_mean", &r.mean, float(r.priorMean)}, {"regression_variance", &r.variance}}, {}, args.flags.vdb);
+    writeBandVdb(band, out.tempPath(), meta, {{"regression_mean", &r.mean, float(r.priorMean)}, {"regression_variance", &r.variance}}, {},
+                 args.flags.vdb);
     out.commit();
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (report) {
@@ -114,15 +111,18 @@ void finishRegress(const BandJob& job, const RegressArgs& args, const Regression
                               {"solve", r.weightSpace ? "weight space (k x k)" : "function space (m x m)"},
                               {"mean_at_data", meanAt},
                               {"variance_at_data", varAt}};
-        json["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"spectrum", secondsSpectrum},
-                             {"regression", secondsRegress}, {"total", total}};
+        json["timings_s"] = {{"model", job.secondsModel},
+                             {"band", job.secondsBand},
+                             {"spectrum", secondsSpectrum},
+                             {"regression", secondsRegress},
+                             {"total", total}};
         json["outputs"] = {args.output};
         for (auto it = extra.begin(); it != extra.end(); ++it) json[it.key()] = it.value();
         commitReport(*report, json);
     }
     if (!args.flags.model.quiet)
-        std::cerr << "regress: " << band.size() << " voxels, " << points.value.size() << " data points, "
-                  << e.values.size() << " eigenpairs, kappa " << r.kappa << ", " << total << " s\n";
+        std::cerr << "regress: " << band.size() << " voxels, " << points.value.size() << " data points, " << e.values.size()
+                  << " eigenpairs, kappa " << r.kappa << ", " << total << " s\n";
 }
 
 }  // namespace gpisvdb::cli

@@ -7,9 +7,9 @@
 #include <string>
 
 #include "band_job.h"
-#include "spectrum_job.h"
 #include "gpisvdb/input/point_data.h"
 #include "gpisvdb/tasks/matern.h"
+#include "spectrum_job.h"
 
 namespace gpisvdb::cli {
 
@@ -35,9 +35,8 @@ RegressionOptions regressionOptions(const RegressArgs& args);
 /// on gpisvdb-mpi the whole band gathered on rank 0), so that the posterior can be refused before the eigen solver
 /// runs. `stage` and `held` name the stage and what the process holds in the refusal. Throws MemoryLimitError beyond
 /// --max-memory, naming fewer data points or eigenpairs where those bytes alone do not fit, else the voxel size.
-MemoryEstimate estimateRegression(const BandJob& job, const RegressionOptions& options, const PointData& points,
-                                  std::size_t voxels, int k, std::vector<std::pair<std::string, double>> ahead,
-                                  const std::string& stage, const std::string& held);
+MemoryEstimate estimateRegression(const BandJob& job, const RegressionOptions& options, const PointData& points, std::size_t voxels, int k,
+                                  std::vector<std::pair<std::string, double>> ahead, const std::string& stage, const std::string& held);
 
 /// The posterior on the job's band from its eigenpairs `e` (computed in `secondsSpectrum`, their memory stage in
 /// `spectrumStage`), the .vdb and the report (with `extra` merged into it).

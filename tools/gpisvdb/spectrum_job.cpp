@@ -15,8 +15,7 @@ void eigenBandBudget(BandFlags& flags) {
 
 void addEigenFlags(CLI::App& cmd, EigenOptions& o) {
     cmd.add_option("-k,--count", o.count, "number of lowest eigenpairs (1 <= k < band voxels)")->capture_default_str();
-    cmd.add_option("--subspace", o.subspace, "Lanczos basis size (> k; 0: max(2k, k+20)); memory 16 N ncv bytes")
-        ->capture_default_str();
+    cmd.add_option("--subspace", o.subspace, "Lanczos basis size (> k; 0: max(2k, k+20)); memory 16 N ncv bytes")->capture_default_str();
     cmd.add_option("--eigen-tolerance", o.tolerance, "relative tolerance on each Ritz value (> 0)")->capture_default_str();
     cmd.add_option("--max-restarts", o.maxRestarts, "Lanczos restart cap (>= 1)")->capture_default_str();
     cmd.add_option("--eigen-method", o.method,

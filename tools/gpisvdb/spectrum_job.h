@@ -33,8 +33,7 @@ std::string eigenGridName(int i);
 /// not fit beside L and M. With `memory`: the stage's estimate (the settled resident set at its start; the larger
 /// of the assembly's peak and L, M and the solver's factor, basis and vectors as estimated before the
 /// factorisation) and the peak measured over it, as memoryStageReport writes them.
-EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress,
-                        nlohmann::json* memory = nullptr);
+EigenResult runSpectrum(const BandJob& job, const EigenOptions& options, const Progress& progress, nlohmann::json* memory = nullptr);
 
 /// The report's "spectrum" section: method, eigenvalues, residuals, orthonormality, solver counts and memory.
 nlohmann::json spectrumReport(const EigenResult& eigen);

@@ -60,7 +60,8 @@ openvdb::Vec3SGrid::Ptr VdbFile::vectorGrid(const std::string& name) const {
         vectors += (vectors.empty() ? "" : ", ") + g->getName();
         if (name.empty() ? !field : g->getName() == name) field = v;
     }
-    if (!name.empty() && !field) throw InputError(path + ": no vector grid named '" + name + "' (vector grids: " + (vectors.empty() ? "none" : vectors) + ")");
+    if (!name.empty() && !field)
+        throw InputError(path + ": no vector grid named '" + name + "' (vector grids: " + (vectors.empty() ? "none" : vectors) + ")");
     if (!field) throw InputError(path + ": holds no float vector (Vec3s) grid");
     if (name.empty() && count > 1) throw InputError(path + ": holds several vector grids (" + vectors + "): name one as " + path + ":NAME");
     return field;

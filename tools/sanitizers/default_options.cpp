@@ -12,9 +12,7 @@
 GPISVDB_SANITIZER_CALLBACK const char* __asan_default_options() {
     return "halt_on_error=1:detect_leaks=1:strict_string_checks=1:check_initialization_order=1";
 }
-GPISVDB_SANITIZER_CALLBACK const char* __ubsan_default_options() {
-    return "halt_on_error=1:print_stacktrace=1";
-}
+GPISVDB_SANITIZER_CALLBACK const char* __ubsan_default_options() { return "halt_on_error=1:print_stacktrace=1"; }
 GPISVDB_SANITIZER_CALLBACK const char* __lsan_default_options() {
     return "suppressions=" GPISVDB_SANITIZER_DIR "/lsan.supp:print_suppressions=0";
 }

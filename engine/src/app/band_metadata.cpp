@@ -3,8 +3,8 @@
 namespace gpisvdb::app {
 
 openvdb::MetaMap bandMetadata(const BandProvenance& provenance, const ModelOptions& modelOptions, const LoadedModel& model,
-                              const BandOptions& options, const Resolution& resolution, bool budgeted,
-                              const BandResult& result, const VdbWriteOptions& vdb) {
+                              const BandOptions& options, const Resolution& resolution, bool budgeted, const BandResult& result,
+                              const VdbWriteOptions& vdb) {
     openvdb::MetaMap meta;
     const InputSamples& in = model.input;
     // === Provenance and the model

@@ -11,10 +11,9 @@ double Band::mass() const {
 double Band::bytesPerVoxel() const {
     if (coord.empty()) return 0;
     const std::size_t tree = index ? index->tree().memUsage() : 0;
-    const std::size_t channels = coord.capacity() * sizeof(openvdb::Coord) + mu.capacity() * sizeof(float) +
-                                 T.capacity() * sizeof(T[0]) + mean.capacity() * sizeof(float) +
-                                 stddev.capacity() * sizeof(float) + normal.capacity() * sizeof(openvdb::Vec3f) +
-                                 stencil.capacity() * sizeof(VoxelStencil);
+    const std::size_t channels = coord.capacity() * sizeof(openvdb::Coord) + mu.capacity() * sizeof(float) + T.capacity() * sizeof(T[0]) +
+                                 mean.capacity() * sizeof(float) + stddev.capacity() * sizeof(float) +
+                                 normal.capacity() * sizeof(openvdb::Vec3f) + stencil.capacity() * sizeof(VoxelStencil);
     return double(tree + channels) / double(coord.size());
 }
 

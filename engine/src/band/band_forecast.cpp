@@ -35,12 +35,12 @@ bool PilotRegion::contains(const Coord& c) const {
     return std::any_of(boxes.begin(), boxes.end(), [&](const CoordBBox& b) { return b.isInside(c); });
 }
 
-BandForecast forecastBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan,
-                          const BandForecastOptions& options, const Progress& progress) {
+BandForecast forecastBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan, const BandForecastOptions& options,
+                          const Progress& progress) {
     if (options.pilotVoxels < 256)
-        throw ParameterError("the pilot (BandForecastOptions::pilotVoxels) needs at least 256 voxels (got " +
-                                 std::to_string(options.pilotVoxels) + ")",
-                             {"BandForecastOptions::pilotVoxels"});
+        throw ParameterError(
+            "the pilot (BandForecastOptions::pilotVoxels) needs at least 256 voxels (got " + std::to_string(options.pilotVoxels) + ")",
+            {"BandForecastOptions::pilotVoxels"});
     if (options.patches < 1)
         throw ParameterError("the pilot needs at least one patch (BandForecastOptions::patches)", {"BandForecastOptions::patches"});
     const BandOptions& o = plan.options;
@@ -111,8 +111,7 @@ BandForecast forecastBand(const GpisModel& model, const Samples& samples, const 
     const double build = bandBuildBytes(f.voxels, f.evaluated, o.batchVoxels, double(firstLevel) * perSeed);
     const double write = bandWriteBytes(f.voxels);
     f.peakBytes = plan.estimate.memory.baselineBytes + std::max(build, write) + modelCache;
-    f.buildSeconds = f.evaluated * (f.secondsPerEvaluated + kSearchSecondsPerEvaluatedVoxel) +
-                     f.voxels * kFinishSecondsPerBandVoxel;
+    f.buildSeconds = f.evaluated * (f.secondsPerEvaluated + kSearchSecondsPerEvaluatedVoxel) + f.voxels * kFinishSecondsPerBandVoxel;
     f.writeSeconds = f.voxels * kVdbWriteSecondsPerBandVoxel;
     return f;
 }

@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <tbb/parallel_for.h>
 
-#include "gpisvdb/core/errors.h"
 #include "../core/heap_reuse.h"
+#include "gpisvdb/core/errors.h"
 #include "gpisvdb/kacrice/kac_rice.h"
 #include "gpisvdb/kacrice/kac_rice_voxel.h"
 #include "gpisvdb/stencil/resolution.h"
@@ -23,8 +23,10 @@ using openvdb::Coord;
 }  // namespace
 
 void checkBandOptions(const BandOptions& o) {
-    if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize)) throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0", {"BandOptions::voxelSize"});
-    if (!(o.etaRelative > 0) || !std::isfinite(o.etaRelative)) throw ParameterError("the band threshold η (BandOptions::etaRelative) must be finite and > 0", {"BandOptions::etaRelative"});
+    if (!(o.voxelSize > 0) || !std::isfinite(o.voxelSize))
+        throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0", {"BandOptions::voxelSize"});
+    if (!(o.etaRelative > 0) || !std::isfinite(o.etaRelative))
+        throw ParameterError("the band threshold η (BandOptions::etaRelative) must be finite and > 0", {"BandOptions::etaRelative"});
     if (!(o.maxAnisotropy >= 1))
         throw ParameterError("the anisotropy cap (BandOptions::maxAnisotropy) must be >= 1", {"BandOptions::maxAnisotropy"});
     if (!std::isfinite(o.iso)) throw ParameterError("the iso-value (BandOptions::iso) must be finite", {"BandOptions::iso"});
@@ -36,9 +38,10 @@ namespace {
 Coord voxelOf(const Vec3d& p, double h) {
     const Vec3d k = p / h;
     if (k.cwiseAbs().maxCoeff() > 1e9)
-        throw ParameterError("the voxel size is too small for the input's extent (index coordinates beyond 1e9): "
-                             "use a larger voxel size (BandOptions::voxelSize)",
-                             {"BandOptions::voxelSize"});
+        throw ParameterError(
+            "the voxel size is too small for the input's extent (index coordinates beyond 1e9): "
+            "use a larger voxel size (BandOptions::voxelSize)",
+            {"BandOptions::voxelSize"});
     return Coord(int(std::lround(k.x())), int(std::lround(k.y())), int(std::lround(k.z())));
 }
 
@@ -195,9 +198,9 @@ BandResult finish(FoundVoxels&& found, const BandOptions& o, const BandStats& st
 
 }  // namespace
 
-std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<Coord>& coords, std::size_t begin,
-                                          std::size_t end, double h, double iso, const QmcRule& rule,
-                                          bool voxelValues, const Progress& progress, BandStats& stats) {
+std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<Coord>& coords, std::size_t begin, std::size_t end,
+                                          double h, double iso, const QmcRule& rule, bool voxelValues, const Progress& progress,
+                                          BandStats& stats) {
     auto t = Clock::now();
     const std::size_t n = end - begin;
     std::vector<Vec3d> xs(n);
@@ -214,8 +217,13 @@ std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vec
         const SurfaceDensity d = voxelValues ? kacRiceVoxel(z[i], iso, h, rule) : kacRice(z[i], iso, rule);
         const double g = d.meanGradient.norm();
         const bool crossed = voxelValues && meanSurfaceCrosses(z[i], iso, h);
-        out[i] = {coords[begin + i], d.mu, d.T, z[i].mean[0], std::sqrt(std::max(0.0, z[i].cov(0, 0))),
-                  g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero(), crossed};
+        out[i] = {coords[begin + i],
+                  d.mu,
+                  d.T,
+                  z[i].mean[0],
+                  std::sqrt(std::max(0.0, z[i].cov(0, 0))),
+                  g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero(),
+                  crossed};
     });
     stats.kacRiceSeconds += since(t);
     return out;
@@ -233,11 +241,11 @@ std::vector<Coord> sampleVoxels(const Samples& samples, double h) {
 void checkVoxelBudget(std::size_t evaluated, const BandOptions& o) {
     const double h = o.voxelSize;
     if (o.maxVoxels && evaluated > o.maxVoxels)
-        throw MemoryLimitError("the band needs more than " + std::to_string(o.maxVoxels) +
-                             " voxels at voxel size " + std::to_string(h) +
-                             ", beyond the voxel budget (BandOptions::maxVoxels): use a larger voxel size (BandOptions::voxelSize), e.g. " +
-                             numberText(2 * h) + ", or raise the budget",
-                             {"BandOptions::maxVoxels", "BandOptions::voxelSize"});
+        throw MemoryLimitError(
+            "the band needs more than " + std::to_string(o.maxVoxels) + " voxels at voxel size " + std::to_string(h) +
+                ", beyond the voxel budget (BandOptions::maxVoxels): use a larger voxel size (BandOptions::voxelSize), e.g. " +
+                numberText(2 * h) + ", or raise the budget",
+            {"BandOptions::maxVoxels", "BandOptions::voxelSize"});
 }
 
 const std::array<Coord, kBfsNeighbours>& bfsNeighbourOffsets() {
@@ -265,8 +273,7 @@ double etaFromSampleMus(std::vector<double> mus, double etaRel, BandStats& stats
 namespace {
 
 /// η in absolute units: etaRelative × the median μ over the voxels holding samples.
-double absoluteEta(const std::vector<BandVoxel>& values, const std::vector<Coord>& sampleVoxels, double etaRel,
-                   BandStats& stats) {
+double absoluteEta(const std::vector<BandVoxel>& values, const std::vector<Coord>& sampleVoxels, double etaRel, BandStats& stats) {
     std::vector<double> mus;
     for (const auto& v : values)
         if (std::binary_search(sampleVoxels.begin(), sampleVoxels.end(), v.coord)) mus.push_back(v.mu);
@@ -286,7 +293,11 @@ struct Rounds {
     double eta = 0;
 
     Rounds(const GpisModel& m, const Samples& samples, const BandOptions& o, const Progress& p)
-        : model(m), options(o), progress(p), rule(bandQmcSamples(o)), sampleVox(sampleVoxels(samples, o.voxelSize)),
+        : model(m),
+          options(o),
+          progress(p),
+          rule(bandQmcSamples(o)),
+          sampleVox(sampleVoxels(samples, o.voxelSize)),
           found(o.maxAnisotropy) {}
 
     template <class Kept>
@@ -300,8 +311,8 @@ struct Rounds {
         // so neither does the band; the batch bounds the transient memory whatever the size of a BFS level.
         for (std::size_t begin = 0; begin < coords.size(); begin += options.batchVoxels) {
             const std::size_t end = std::min(coords.size(), begin + options.batchVoxels);
-            std::vector<BandVoxel> values = evaluateBandVoxels(model, coords, begin, end, options.voxelSize, options.iso,
-                                                               rule, options.voxelValues, progress.interruptOnly(), stats);
+            std::vector<BandVoxel> values = evaluateBandVoxels(model, coords, begin, end, options.voxelSize, options.iso, rule,
+                                                               options.voxelValues, progress.interruptOnly(), stats);
             if (first) {
                 firstRound.insert(firstRound.end(), values.begin(), values.end());
                 continue;
@@ -391,8 +402,8 @@ BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOp
             if (done.empty() || !done.isInside(*it)) coords.push_back(*it);
         bool touches = false;
         rounds.round(coords, [&](const Coord& c) {
-            touches = touches || c.x() == box.min().x() || c.y() == box.min().y() || c.z() == box.min().z() ||
-                      c.x() == box.max().x() || c.y() == box.max().y() || c.z() == box.max().z();
+            touches = touches || c.x() == box.min().x() || c.y() == box.min().y() || c.z() == box.min().z() || c.x() == box.max().x() ||
+                      c.y() == box.max().y() || c.z() == box.max().z();
         });
         if (!touches) break;
         done = box;

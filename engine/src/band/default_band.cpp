@@ -23,8 +23,8 @@ double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels, 
                           std::max(kFoundBytesPerVoxel * voxels, kFoundBeforeLargestLevel * kFoundBytesPerVoxel * voxels + batch);
     const double gather = voxels * (kFoundBytesPerVoxel + kIndexTreeBytesPerVoxel + 4.0 + double(sizeof(VoxelStencil)));
     // The first level: its coordinates and its evaluated voxels held whole, and the voxels it keeps
-    const double first = kSearchBytesPerEvaluatedVoxel * evaluated +
-                         firstLevel * (double(sizeof(openvdb::Coord) + sizeof(BandVoxel)) + kFoundBytesPerVoxel);
+    const double first =
+        kSearchBytesPerEvaluatedVoxel * evaluated + firstLevel * (double(sizeof(openvdb::Coord) + sizeof(BandVoxel)) + kFoundBytesPerVoxel);
     return std::max({search, gather, first});
 }
 
@@ -33,8 +33,7 @@ double bandWriteBytes(double voxels) {
     return voxels * (kFoundBytesPerVoxel + 4.0 * kIndexTreeBytesPerVoxel);
 }
 
-BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes,
-                          bool voxelValues) {
+BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes, bool voxelValues) {
     BandEstimate e;
     // === Voxel counts: the shell where μ > η (Resolution::bandVolume) and about half a voxel on either side (with
     // voxel values, the reach of the cubes' cross-sections); the build also evaluates the rejected shell, a voxel or
@@ -53,28 +52,29 @@ DefaultBandPlan planDefaultBand(const GpisModel& model, const Samples& samples, 
                                 const Progress& progress) {
     const BandOptions& bo = options.band;
     if (!(bo.etaRelative > 0) || !std::isfinite(bo.etaRelative))
-        throw ParameterError("the band threshold η (BandOptions::etaRelative) must be finite and > 0 (got " +
-                                 numberText(bo.etaRelative) + ")",
-                             {"BandOptions::etaRelative"});
+        throw ParameterError(
+            "the band threshold η (BandOptions::etaRelative) must be finite and > 0 (got " + numberText(bo.etaRelative) + ")",
+            {"BandOptions::etaRelative"});
     if (!(bo.voxelSize >= 0) || !std::isfinite(bo.voxelSize))
         throw ParameterError("the voxel size (BandOptions::voxelSize) must be finite and > 0 (got " + numberText(bo.voxelSize) + ")",
                              {"BandOptions::voxelSize"});
     if (!(options.maxBandVoxels == 0 || (options.maxBandVoxels >= 1000 && std::isfinite(options.maxBandVoxels))))
-        throw ParameterError("the band-voxel budget (DefaultBandOptions::maxBandVoxels) must be 0 (none) or a finite "
-                             "number >= 1000 (got " + numberText(options.maxBandVoxels) + ")",
-                             {"DefaultBandOptions::maxBandVoxels"});
+        throw ParameterError(
+            "the band-voxel budget (DefaultBandOptions::maxBandVoxels) must be 0 (none) or a finite "
+            "number >= 1000 (got " +
+                numberText(options.maxBandVoxels) + ")",
+            {"DefaultBandOptions::maxBandVoxels"});
     if (!(options.maxMemory >= 0) || !std::isfinite(options.maxMemory))
-        throw ParameterError("the memory limit (DefaultBandOptions::maxMemory) must be finite and > 0 bytes (got " +
-                                 numberText(options.maxMemory) + ")",
-                             {"DefaultBandOptions::maxMemory"});
+        throw ParameterError(
+            "the memory limit (DefaultBandOptions::maxMemory) must be finite and > 0 bytes (got " + numberText(options.maxMemory) + ")",
+            {"DefaultBandOptions::maxMemory"});
     DefaultBandPlan out;
     out.maxMemory = options.maxMemory > 0 ? options.maxMemory : 0.5 * physicalMemory();
 
     // === Resolution (paper Eq. 25 and μ's width)
     ResolutionOptions ro;
     const double iso = std::isnan(bo.iso) ? model.naturalIso() : bo.iso;
-    if (!std::isfinite(iso))
-        throw ParameterError("the iso-value u (BandOptions::iso) must be finite", {"BandOptions::iso"});
+    if (!std::isfinite(iso)) throw ParameterError("the iso-value u (BandOptions::iso) must be finite", {"BandOptions::iso"});
     ro.iso = iso;
     ro.qmcSamples = bo.qmcSamples;
     ro.resolutionScale = options.resolutionScale;
@@ -92,8 +92,7 @@ DefaultBandPlan planDefaultBand(const GpisModel& model, const Samples& samples, 
     // What the model keeps while it evaluates the band (its cell tables, docs/memory.md#band) does not depend on h.
     const double modelCache = model.expectedDenseCacheBytes();
     const auto estimate = [&](double hh) {
-        BandEstimate e = estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline,
-                                      voxelValues);
+        BandEstimate e = estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline, voxelValues);
         if (modelCache > 0) e.memory.parts.emplace_back("the model's tables", modelCache);
         return e;
     };
@@ -129,7 +128,8 @@ DefaultBandPlan planDefaultBand(const GpisModel& model, const Samples& samples, 
         throw MemoryLimitError("the band would need about " + numberText(voxels) + " voxels (" + numberText(need / 1e9) +
                                    " GB) at voxel size " + numberText(h) +
                                    ", more than the memory limit (DefaultBandOptions::maxMemory) allows: use a voxel size "
-                                   "(BandOptions::voxelSize) of " + numberText(fits) + " or larger",
+                                   "(BandOptions::voxelSize) of " +
+                                   numberText(fits) + " or larger",
                                {"DefaultBandOptions::maxMemory", "BandOptions::voxelSize"});
     }
     // The backstop while building, should the estimate be low: evaluated voxels are ≈ 1.4–1.6 band voxels (measured).
@@ -138,16 +138,15 @@ DefaultBandPlan planDefaultBand(const GpisModel& model, const Samples& samples, 
     return out;
 }
 
-DefaultBand buildPlannedBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan,
-                             const BandBuilder& build, const Progress& progress) {
+DefaultBand buildPlannedBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan, const BandBuilder& build,
+                             const Progress& progress) {
     DefaultBand out;
     static_cast<DefaultBandPlan&>(out) = plan;
     out.result = build ? build(model, samples, out.options, progress) : buildBand(model, samples, out.options, progress);
     return out;
 }
 
-DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options,
-                             const Progress& progress) {
+DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options, const Progress& progress) {
     return buildPlannedBand(model, samples, planDefaultBand(model, samples, options, progress), options.build, progress);
 }
 
@@ -212,8 +211,9 @@ std::string voxelSizeNote(const DefaultBandPlan& band) {
                        "; docs/benchmarks.md#coarse-voxels)";
         return note + " (coarser than any h/w_mu measured, 8: docs/benchmarks.md#coarse-voxels)";
     }
-    return note + "; mu and T are the voxels' own shares, s at least 2h (their accuracy by h/w_mu: "
-                  "docs/benchmarks.md#coarse-voxels)";
+    return note +
+           "; mu and T are the voxels' own shares, s at least 2h (their accuracy by h/w_mu: "
+           "docs/benchmarks.md#coarse-voxels)";
 }
 
 }  // namespace gpisvdb

@@ -1,8 +1,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <Eigen/Eigenvalues>
+#include <limits>
 #include <nanoflann.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -19,16 +19,16 @@ struct CloudAdaptor {
     std::size_t kdtree_get_point_count() const { return pts.size(); }
     double kdtree_get_pt(std::size_t i, std::size_t d) const { return pts[i][int(d)]; }
     template <class B>
-    bool kdtree_get_bbox(B&) const { return false; }
+    bool kdtree_get_bbox(B&) const {
+        return false;
+    }
 };
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, CloudAdaptor>,
-                                                   CloudAdaptor, 3, std::size_t>;
+using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, CloudAdaptor>, CloudAdaptor, 3, std::size_t>;
 
 /// Point i's area from the points in its cylinder (the rule: cloudSamples' "Local area"); 0 where p_i has no
 /// distinct neighbour or no normal. idx, d2 (k + 1 entries) and ball are the caller's scratch.
-double cylinderArea(const KdTree& tree, const PointCloud& cloud, std::size_t i, std::size_t k,
-                    const CloudNoiseOptions& options, std::vector<std::size_t>& idx, std::vector<double>& d2,
-                    std::vector<std::pair<std::size_t, double>>& ball) {
+double cylinderArea(const KdTree& tree, const PointCloud& cloud, std::size_t i, std::size_t k, const CloudNoiseOptions& options,
+                    std::vector<std::size_t>& idx, std::vector<double>& d2, std::vector<std::pair<std::size_t, double>>& ball) {
     const Vec3d& p = cloud.positions[i];
     const std::size_t found = tree.knnSearch(p.data(), k + 1, idx.data(), d2.data());
     double R = 2.0 * std::sqrt(d2[found - 1]);
@@ -73,17 +73,17 @@ double cloudSamplingBytes(std::size_t points) {
 
 CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& options) {
     if (!(options.sigmaRel > 0) || !std::isfinite(options.sigmaRel))
-        throw ParameterError("the relative noise σ (CloudNoiseOptions::sigmaRel) must be finite and > 0 (got " +
-                                 numberText(options.sigmaRel) + ")",
-                             {"CloudNoiseOptions::sigmaRel"});
+        throw ParameterError(
+            "the relative noise σ (CloudNoiseOptions::sigmaRel) must be finite and > 0 (got " + numberText(options.sigmaRel) + ")",
+            {"CloudNoiseOptions::sigmaRel"});
     if (options.areaDoublings < 0 || options.areaDoublings > 20)
         throw ParameterError("the cylinder's doublings (CloudNoiseOptions::areaDoublings) must be in 0…20 (got " +
                                  std::to_string(options.areaDoublings) + ")",
                              {"CloudNoiseOptions::areaDoublings"});
     if (!(options.areaIsotropy >= 0 && options.areaIsotropy <= 1))
-        throw ParameterError("the cylinder's isotropy (CloudNoiseOptions::areaIsotropy) must be in [0, 1] (got " +
-                                 numberText(options.areaIsotropy) + ")",
-                             {"CloudNoiseOptions::areaIsotropy"});
+        throw ParameterError(
+            "the cylinder's isotropy (CloudNoiseOptions::areaIsotropy) must be in [0, 1] (got " + numberText(options.areaIsotropy) + ")",
+            {"CloudNoiseOptions::areaIsotropy"});
     if (options.areaGrowthPoints < 1)
         throw ParameterError("the cylinder's growth limit (CloudNoiseOptions::areaGrowthPoints) must be >= 1 (got " +
                                  std::to_string(options.areaGrowthPoints) + ")",
@@ -96,17 +96,16 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     for (std::size_t i = 0; i < n; ++i)
         if (!(cloud.normals[i].norm() > 0)) throw InputError("point " + std::to_string(i + 1) + " has a zero normal");
     if (!cloud.normalCovariances.empty() && cloud.normalCovariances.size() != n)
-        throw InputError("the point cloud has " + std::to_string(cloud.normalCovariances.size()) +
-                         " normal covariances for " + std::to_string(n) + " points");
+        throw InputError("the point cloud has " + std::to_string(cloud.normalCovariances.size()) + " normal covariances for " +
+                         std::to_string(n) + " points");
     if (!cloud.positionVariances.empty() && cloud.positionVariances.size() != n)
-        throw InputError("the point cloud has " + std::to_string(cloud.positionVariances.size()) +
-                         " position variances for " + std::to_string(n) + " points");
+        throw InputError("the point cloud has " + std::to_string(cloud.positionVariances.size()) + " position variances for " +
+                         std::to_string(n) + " points");
     if (!(cloud.lengthScale >= 0) || !std::isfinite(cloud.lengthScale))
         throw InputError("the point cloud's given length scale must be finite and > 0");
     if (!cloud.areas.empty()) {
         if (cloud.areas.size() != n)
-            throw InputError("the point cloud has " + std::to_string(cloud.areas.size()) + " areas for " +
-                             std::to_string(n) + " points");
+            throw InputError("the point cloud has " + std::to_string(cloud.areas.size()) + " areas for " + std::to_string(n) + " points");
         for (std::size_t i = 0; i < n; ++i)
             if (!(cloud.areas[i] >= 0) || !std::isfinite(cloud.areas[i]))
                 throw InputError("point " + std::to_string(i + 1) + " has an area that is not a finite number >= 0");
@@ -150,8 +149,7 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
     for (std::size_t i = 0; i < kept; ++i) keptArea += areas[i];
     const double ell = cloud.lengthScale > 0 ? cloud.lengthScale : std::sqrt(keptArea / double(kept));
     if (!(ell > 0) || !std::isfinite(ell))
-        throw InputError(cloud.areas.empty() ? "all points of the cloud coincide"
-                                             : "the point cloud's areas are all 0 (or all but 1 %)");
+        throw InputError(cloud.areas.empty() ? "all points of the cloud coincide" : "the point cloud's areas are all 0 (or all but 1 %)");
 
     CloudSamples out;
     out.sigma = options.sigmaRel * ell;
@@ -172,9 +170,8 @@ CloudSamples cloudSamples(const PointCloud& cloud, const CloudNoiseOptions& opti
         S.position.push_back(cloud.positions[i]);
         S.normal.push_back(cloud.vectorAreas ? cloud.normals[i] : a * nrm);
         S.positionVariance.push_back(variance);
-        S.normalCovariance.push_back(cloud.normalCovariances.empty()
-                                         ? Sym3::from(tau2a2 * (Mat3d::Identity() - nrm * nrm.transpose()))
-                                         : cloud.normalCovariances[i]);
+        S.normalCovariance.push_back(cloud.normalCovariances.empty() ? Sym3::from(tau2a2 * (Mat3d::Identity() - nrm * nrm.transpose()))
+                                                                     : cloud.normalCovariances[i]);
     }
     return out;
 }

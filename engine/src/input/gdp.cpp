@@ -1,9 +1,9 @@
 #include "gpisvdb/input/gdp.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 #include <fstream>
 #include <string_view>
 
@@ -14,7 +14,7 @@ namespace gpisvdb {
 
 namespace {
 
-constexpr double kRelativeTolerance = 1e-6;  // symmetry, isotropy and cross terms, against the covariance's scale
+constexpr double kRelativeTolerance = 1e-6;                   // symmetry, isotropy and cross terms, against the covariance's scale
 constexpr std::string_view kLengthScaleKey = "length_scale";  // the comment "# length_scale L" after the dipoles
 
 /// White-space separated tokens of a text with the line each starts on.
@@ -81,8 +81,8 @@ std::pair<double, Sym3> dipoleNoise(const Eigen::Matrix<double, 6, 6>& C, const 
     if (!(v > 0)) throw InputError(where + "its position variance (the trace of the position block / 3) must be > 0, got " + text(v));
     if ((P - v * Mat3d::Identity()).cwiseAbs().maxCoeff() > kRelativeTolerance * v) {
         const Eigen::Vector3d e = Eigen::SelfAdjointEigenSolver<Mat3d>(P, Eigen::EigenvaluesOnly).eigenvalues();
-        throw InputError(where + "its position covariance is not isotropic (eigenvalues " + text(e(0)) + ", " + text(e(1)) +
-                         ", " + text(e(2)) + "): gpisvdb's model carries position noise sigma^2 I only");
+        throw InputError(where + "its position covariance is not isotropic (eigenvalues " + text(e(0)) + ", " + text(e(1)) + ", " +
+                         text(e(2)) + "): gpisvdb's model carries position noise sigma^2 I only");
     }
     // === No position–normal cross term, against √(v · the normal block's largest variance)
     const double crossScale = std::sqrt(v * std::max(0.0, N.diagonal().maxCoeff()));
@@ -92,8 +92,8 @@ std::pair<double, Sym3> dipoleNoise(const Eigen::Matrix<double, 6, 6>& C, const 
     // === Σ' positive semi-definite
     const Eigen::Vector3d e = Eigen::SelfAdjointEigenSolver<Mat3d>(N, Eigen::EigenvaluesOnly).eigenvalues();
     if (e(0) < -kRelativeTolerance * std::max(0.0, e(2)) || !(e(2) >= 0))
-        throw InputError(where + "its normal covariance is not positive semi-definite (eigenvalues " + text(e(0)) + ", " +
-                         text(e(1)) + ", " + text(e(2)) + ")");
+        throw InputError(where + "its normal covariance is not positive semi-definite (eigenvalues " + text(e(0)) + ", " + text(e(1)) +
+                         ", " + text(e(2)) + ")");
     return {v, Sym3::from(N)};
 }
 
@@ -125,8 +125,8 @@ InputData readGdp(const std::string& path) {
     c.positions.reserve(promised), c.normals.reserve(promised), c.positionVariances.reserve(promised);
     c.areas.reserve(promised), c.normalCovariances.reserve(promised);
     for (std::size_t i = 0; i < n; ++i) {
-        const std::string ending = "it declares " + std::to_string(n) + " dipoles (3 + 3 + 36 numbers each) and ends in dipole " +
-                                   std::to_string(i + 1);
+        const std::string ending =
+            "it declares " + std::to_string(n) + " dipoles (3 + 3 + 36 numbers each) and ends in dipole " + std::to_string(i + 1);
         Vec3d p, w;
         for (int k = 0; k < 3; ++k) p[k] = tokens.number("a position", ending);
         const std::size_t line = tokens.line();
@@ -148,8 +148,9 @@ InputData readGdp(const std::string& path) {
     std::string_view extra;
     while (tokens.next(extra)) {
         if (extra[0] != '#')
-            fail(path, tokens.line(), "more numbers than the " + std::to_string(n) + " dipoles the header declares ('" +
-                                          std::string(extra.substr(0, 32)) + "')");
+            fail(
+                path, tokens.line(),
+                "more numbers than the " + std::to_string(n) + " dipoles the header declares ('" + std::string(extra.substr(0, 32)) + "')");
         const std::size_t line = tokens.line();
         std::string_view key = extra.substr(1);
         if (key.empty() && !tokens.next(key, /*sameLine*/ true)) continue;

@@ -30,9 +30,13 @@ struct Element {
 
 int typeSize(Type t) {
     switch (t) {
-        case Type::I8: case Type::U8: return 1;
-        case Type::I16: case Type::U16: return 2;
-        case Type::I32: case Type::U32: case Type::F32: return 4;
+        case Type::I8:
+        case Type::U8: return 1;
+        case Type::I16:
+        case Type::U16: return 2;
+        case Type::I32:
+        case Type::U32:
+        case Type::F32: return 4;
         case Type::F64: return 8;
     }
     return 0;
@@ -40,9 +44,9 @@ int typeSize(Type t) {
 
 bool parseType(const std::string& s, Type& t) {
     static const std::map<std::string, Type> types = {
-        {"char", Type::I8}, {"int8", Type::I8}, {"uchar", Type::U8}, {"uint8", Type::U8},
-        {"short", Type::I16}, {"int16", Type::I16}, {"ushort", Type::U16}, {"uint16", Type::U16},
-        {"int", Type::I32}, {"int32", Type::I32}, {"uint", Type::U32}, {"uint32", Type::U32},
+        {"char", Type::I8},   {"int8", Type::I8},     {"uchar", Type::U8},   {"uint8", Type::U8},
+        {"short", Type::I16}, {"int16", Type::I16},   {"ushort", Type::U16}, {"uint16", Type::U16},
+        {"int", Type::I32},   {"int32", Type::I32},   {"uint", Type::U32},   {"uint32", Type::U32},
         {"float", Type::F32}, {"float32", Type::F32}, {"double", Type::F64}, {"float64", Type::F64}};
     auto it = types.find(s);
     if (it == types.end()) return false;
@@ -69,17 +73,52 @@ public:
         std::memcpy(b, bytes_.data() + pos_, std::size_t(n));
         pos_ += std::size_t(n);
         const bool little = format_ == 1;
-        const bool hostLittle = [] { const uint16_t x = 1; return *reinterpret_cast<const uint8_t*>(&x) == 1; }();
+        const bool hostLittle = [] {
+            const uint16_t x = 1;
+            return *reinterpret_cast<const uint8_t*>(&x) == 1;
+        }();
         if (little != hostLittle) std::reverse(b, b + n);
         switch (t) {
-            case Type::I8: { int8_t v; std::memcpy(&v, b, 1); return v; }
-            case Type::U8: { uint8_t v; std::memcpy(&v, b, 1); return v; }
-            case Type::I16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-            case Type::U16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-            case Type::I32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-            case Type::U32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-            case Type::F32: { float v; std::memcpy(&v, b, 4); return v; }
-            case Type::F64: { double v; std::memcpy(&v, b, 8); return v; }
+            case Type::I8: {
+                int8_t v;
+                std::memcpy(&v, b, 1);
+                return v;
+            }
+            case Type::U8: {
+                uint8_t v;
+                std::memcpy(&v, b, 1);
+                return v;
+            }
+            case Type::I16: {
+                int16_t v;
+                std::memcpy(&v, b, 2);
+                return v;
+            }
+            case Type::U16: {
+                uint16_t v;
+                std::memcpy(&v, b, 2);
+                return v;
+            }
+            case Type::I32: {
+                int32_t v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case Type::U32: {
+                uint32_t v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case Type::F32: {
+                float v;
+                std::memcpy(&v, b, 4);
+                return v;
+            }
+            case Type::F64: {
+                double v;
+                std::memcpy(&v, b, 8);
+                return v;
+            }
         }
         return 0;
     }
@@ -122,8 +161,7 @@ InputData readPly(const std::string& path) {
             ls >> e.name >> count;
             if (count < 0) fail(path, ln, "invalid element count");
             for (const Element& other : elements)
-                if (other.name == e.name && (e.name == "vertex" || e.name == "face"))
-                    fail(path, ln, "a second '" + e.name + "' element");
+                if (other.name == e.name && (e.name == "vertex" || e.name == "face")) fail(path, ln, "a second '" + e.name + "' element");
             e.count = std::size_t(count);
             if (e.name == "vertex" || e.name == "face") checkSampleCount(path, e.count, e.name + " elements declared");
             elements.push_back(e);
@@ -178,7 +216,10 @@ InputData readPly(const std::string& path) {
     }
 
     // === Assemble a soup (faces present) or an oriented cloud
-    auto column = [&](const char* name) { auto it = vertexIndex.find(name); return it == vertexIndex.end() ? -1 : it->second; };
+    auto column = [&](const char* name) {
+        auto it = vertexIndex.find(name);
+        return it == vertexIndex.end() ? -1 : it->second;
+    };
     const int ix = column("x"), iy = column("y"), iz = column("z");
     if (ix < 0 || iy < 0 || iz < 0) fail(path, 0, "the vertex element lacks x, y or z");
     std::vector<Vec3d> points;
@@ -192,7 +233,8 @@ InputData readPly(const std::string& path) {
             if (f.size() < 3) fail(path, 0, "a face needs at least 3 corners");
             std::vector<int> corners;
             for (double c : f) {
-                if (!(c >= 0 && c < double(nv))) fail(path, 0, "face index " + numberText(c) + " is out of range (the file has " + std::to_string(nv) + " vertices)");
+                if (!(c >= 0 && c < double(nv)))
+                    fail(path, 0, "face index " + numberText(c) + " is out of range (the file has " + std::to_string(nv) + " vertices)");
                 if (c != std::floor(c)) fail(path, 0, "face index " + numberText(c) + " is not an integer");
                 corners.push_back(int(c));
             }

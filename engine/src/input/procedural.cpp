@@ -12,11 +12,10 @@ TriangleSoup icosphere(int level, double radius) {
     if (level < 0 || level > 9) throw ParameterError("icosphere level must be in [0, 9]");
     const double t = (1.0 + std::sqrt(5.0)) / 2.0;
     TriangleSoup s;
-    s.vertices = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                  {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-    s.triangles = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                   {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
-                   {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+    s.vertices = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                  {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+    s.triangles = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                   {3, 9, 4},  {3, 4, 2}, {3, 2, 6}, {3, 6, 8},  {3, 8, 9},   {4, 9, 5}, {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
     for (auto& v : s.vertices) v.normalize();
     for (int l = 0; l < level; ++l) {
         std::map<std::pair<int, int>, int> mid;
@@ -47,8 +46,8 @@ TriangleSoup torus(int u, int v, double major, double minor) {
     for (int i = 0; i < u; ++i)
         for (int j = 0; j < v; ++j) {
             const double a = 2 * M_PI * i / u, b = 2 * M_PI * j / v;
-            s.vertices.emplace_back((major + minor * std::cos(b)) * std::cos(a),
-                                    (major + minor * std::cos(b)) * std::sin(a), minor * std::sin(b));
+            s.vertices.emplace_back((major + minor * std::cos(b)) * std::cos(a), (major + minor * std::cos(b)) * std::sin(a),
+                                    minor * std::sin(b));
         }
     auto id = [&](int i, int j) { return (i % u) * v + (j % v); };
     for (int i = 0; i < u; ++i)

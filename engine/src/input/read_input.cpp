@@ -46,8 +46,7 @@ double parseFinite(const std::string& token, const std::string& path, std::size_
 
 void addPolygon(InputData& data, const std::vector<int>& corners) {
     if (corners.size() > 3) ++data.polygonsTriangulated;
-    for (std::size_t k = 1; k + 1 < corners.size(); ++k)
-        data.soup->triangles.push_back({corners[0], corners[k], corners[k + 1]});
+    for (std::size_t k = 1; k + 1 < corners.size(); ++k) data.soup->triangles.push_back({corners[0], corners[k], corners[k + 1]});
 }
 
 void checkFinite(const std::string& path, const std::vector<Vec3d>& points, const char* what) {
@@ -82,7 +81,10 @@ InputData readInput(const std::string& path) {
         throw InputError(path + ": unknown extension '" + ext +
                          "' (meshes: .obj .off .ply .stl .vtp; oriented clouds: .xyz .ply .vtp; Gaussian dipoles: .gdp)");
     data.path = path;
-    detail::checkSampleCount(path, data.soup ? data.soup->triangles.size() : data.cloud ? data.cloud->positions.size() : 0,
+    detail::checkSampleCount(path,
+                             data.soup    ? data.soup->triangles.size()
+                             : data.cloud ? data.cloud->positions.size()
+                                          : 0,
                              data.soup ? "triangles" : "points");
     if (data.soup) {
         if (data.soup->triangles.empty()) throw InputError(path + ": the mesh has no faces");
@@ -114,7 +116,10 @@ std::vector<std::pair<std::string, double>> makeSamplesBytes(const InputData& in
 
 InputSamples makeSamples(const InputData& input, const NoiseOptions& options) {
     InputSamples out;
-    detail::checkSampleCount(input.path, input.soup ? input.soup->triangles.size() : input.cloud ? input.cloud->positions.size() : 0,
+    detail::checkSampleCount(input.path,
+                             input.soup    ? input.soup->triangles.size()
+                             : input.cloud ? input.cloud->positions.size()
+                                           : 0,
                              input.soup ? "triangles" : "points");
     if (input.soup) {
         SoupSamples s = soupSamples(*input.soup, {options.sigmaRel});

@@ -9,9 +9,7 @@ namespace {
 // A triangle is degenerate when its area is negligible against its longest edge (scale free).
 constexpr double kDegenerateRatio = 1e-12;
 
-bool degenerate(const Vec3d& area2, double maxEdge2) {
-    return !(area2.norm() > kDegenerateRatio * maxEdge2);
-}
+bool degenerate(const Vec3d& area2, double maxEdge2) { return !(area2.norm() > kDegenerateRatio * maxEdge2); }
 }  // namespace
 
 double meanEdgeLength(const TriangleSoup& soup) {
@@ -31,9 +29,9 @@ double meanEdgeLength(const TriangleSoup& soup) {
 
 SoupSamples soupSamples(const TriangleSoup& soup, const SoupNoiseOptions& options) {
     if (!(options.sigmaRel > 0) || !std::isfinite(options.sigmaRel))
-        throw ParameterError("the relative noise σ (SoupNoiseOptions::sigmaRel) must be finite and > 0 (got " +
-                                 numberText(options.sigmaRel) + ")",
-                             {"SoupNoiseOptions::sigmaRel"});
+        throw ParameterError(
+            "the relative noise σ (SoupNoiseOptions::sigmaRel) must be finite and > 0 (got " + numberText(options.sigmaRel) + ")",
+            {"SoupNoiseOptions::sigmaRel"});
     SoupSamples out;
     const double ell = meanEdgeLength(soup);
     if (!(ell > 0)) throw InputError("the mesh has no triangle of non-zero area");

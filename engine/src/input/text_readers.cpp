@@ -25,8 +25,7 @@ std::vector<std::string> split(const std::string& line) {
 int parseIndex(const std::string& token, const std::string& path, std::size_t line) {
     char* end = nullptr;
     const long v = std::strtol(token.c_str(), &end, 10);
-    if (end == token.c_str() || (*end != '\0' && *end != '/'))
-        fail(path, line, "expected a vertex index, got '" + token + "'");
+    if (end == token.c_str() || (*end != '\0' && *end != '/')) fail(path, line, "expected a vertex index, got '" + token + "'");
     if (v > std::numeric_limits<int>::max() || v < -long(std::numeric_limits<int>::max()))
         fail(path, line, "face index " + token + " is out of range");
     return int(v);
@@ -41,11 +40,11 @@ std::string requireText(const std::string& path, const char* format) {
 }  // namespace
 
 InputData readObj(const std::string& path) {
-    static const std::set<std::string> known = {
-        "v", "vt", "vn", "vp", "f", "l", "p", "g", "o", "s", "mg", "usemtl", "mtllib", "maplib", "usemap",
-        "lod", "shadow_obj", "trace_obj", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm",
-        "trim", "hole", "scrv", "sp", "end", "con", "bevel", "c_interp", "d_interp", "call", "csh", "ctech",
-        "stech"};
+    static const std::set<std::string> known = {"v",          "vt",        "vn",       "vp",     "f",      "l",      "p",      "g",
+                                                "o",          "s",         "mg",       "usemtl", "mtllib", "maplib", "usemap", "lod",
+                                                "shadow_obj", "trace_obj", "cstype",   "deg",    "bmat",   "step",   "curv",   "curv2",
+                                                "surf",       "parm",      "trim",     "hole",   "scrv",   "sp",     "end",    "con",
+                                                "bevel",      "c_interp",  "d_interp", "call",   "csh",    "ctech",  "stech"};
     std::istringstream in(requireText(path, "OBJ"));
     InputData data;
     data.soup.emplace();
@@ -76,7 +75,9 @@ InputData readObj(const std::string& path) {
     const long nv = long(data.soup->vertices.size());
     for (const auto& [corners, ln] : faces) {
         for (int c : corners)
-            if (c >= nv) fail(path, ln, "face index " + std::to_string(c + 1) + " is out of range (the file has " + std::to_string(nv) + " vertices)");
+            if (c >= nv)
+                fail(path, ln,
+                     "face index " + std::to_string(c + 1) + " is out of range (the file has " + std::to_string(nv) + " vertices)");
         addPolygon(data, corners);
     }
     return data;
@@ -95,8 +96,7 @@ InputData readOff(const std::string& path) {
         return tok[at++];
     };
     const std::string head = tok.empty() ? std::string() : tok[0].first;
-    if (head != "OFF" && head != "COFF" && head != "NOFF" && head != "CNOFF")
-        fail(path, 1, "missing the OFF header: not an OFF file?");
+    if (head != "OFF" && head != "COFF" && head != "NOFF" && head != "CNOFF") fail(path, 1, "missing the OFF header: not an OFF file?");
     ++at;
     auto count = [&](const char* what) {
         const auto& [t, ln] = next(what);
@@ -132,7 +132,8 @@ InputData readOff(const std::string& path) {
             const auto& [t, cl] = next("a face index");
             const double d = parseFinite(t, path, cl, "face index");
             if (d != std::floor(d)) fail(path, cl, "face index " + t + " is not an integer");
-            if (!(d >= 0 && d < double(nv))) fail(path, cl, "face index " + t + " is out of range (the file has " + std::to_string(nv) + " vertices)");
+            if (!(d >= 0 && d < double(nv)))
+                fail(path, cl, "face index " + t + " is out of range (the file has " + std::to_string(nv) + " vertices)");
             corners.push_back(int(d));
         }
         // Optional face colour: skip the rest of this line.
@@ -154,8 +155,7 @@ InputData readXyz(const std::string& path) {
         if (tok.empty()) continue;
         if (columns == 0) {
             columns = tok.size();
-            if (columns == 3)
-                fail(path, ln, "the point cloud has no normals: expected 'x y z nx ny nz [sigma]' per line");
+            if (columns == 3) fail(path, ln, "the point cloud has no normals: expected 'x y z nx ny nz [sigma]' per line");
             if (columns != 6 && columns != 7)
                 fail(path, ln, "expected 6 or 7 columns 'x y z nx ny nz [sigma]', got " + std::to_string(columns));
         } else if (tok.size() != columns) {

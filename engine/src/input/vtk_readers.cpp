@@ -5,8 +5,8 @@
 #include <vtkIdList.h>
 #include <vtkPointData.h>
 #include <vtkPolyData.h>
-#include <vtkSTLReader.h>
 #include <vtkSmartPointer.h>
+#include <vtkSTLReader.h>
 #include <vtkXMLPolyDataReader.h>
 
 #include "readers.h"
@@ -34,8 +34,7 @@ vtkPolyData* run(Reader* reader, const std::string& path, const char* format) {
     vtkPolyData* out = reader->GetOutput();
     if (!errors->message.empty() || !out || out->GetNumberOfPoints() == 0) {
         std::string why = errors->message;
-        if (const auto nl = why.find_last_of('\n', why.size() > 1 ? why.size() - 2 : 0); nl != std::string::npos)
-            why = why.substr(nl + 1);
+        if (const auto nl = why.find_last_of('\n', why.size() > 1 ? why.size() - 2 : 0); nl != std::string::npos) why = why.substr(nl + 1);
         while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
         fail(path, 0, std::string("could not be read as ") + format + (why.empty() ? " (no points)" : ": " + why));
     }

@@ -61,14 +61,13 @@ double boxGaussianDensity(double x, double a, double b, double c, double s) {
 namespace {
 /// A sum's 8 corners, one lane each: corner k adds ±a/2 (bit 0), ±b/2 (bit 1), ±c/2 (bit 2).
 using Corners = gpisvdb::simd::Lanes;
-constexpr Corners kSignA = {-1, 1, -1, 1, -1, 1, -1, 1}, kSignB = {-1, -1, 1, 1, -1, -1, 1, 1},
-                  kSignC = {-1, -1, -1, -1, 1, 1, 1, 1};
+constexpr Corners kSignA = {-1, 1, -1, 1, -1, 1, -1, 1}, kSignB = {-1, -1, 1, 1, -1, -1, 1, 1}, kSignC = {-1, -1, -1, -1, 1, 1, 1, 1};
 /// (−1)^(3 − the corner's plus signs): the third divided difference's weights.
 constexpr Corners kDifference = kSignA * kSignB * kSignC;
 }  // namespace
 
-GPISVDB_SIMD_CLONES void boxGaussianDensities(std::size_t n, const double* x, const double* a, const double* b, const double* c,
-                                 double s, double* out) {
+GPISVDB_SIMD_CLONES void boxGaussianDensities(std::size_t n, const double* x, const double* a, const double* b, const double* c, double s,
+                                              double* out) {
     s = std::abs(s);
     if (!(s > 0)) {
         for (std::size_t i = 0; i < n; ++i) out[i] = boxGaussianDensity(x[i], a[i], b[i], c[i], s);
@@ -88,8 +87,8 @@ GPISVDB_SIMD_CLONES void boxGaussianDensities(std::size_t n, const double* x, co
         }
         const Corners z = (x[i] + 0.5 * (wa * kSignA + wb * kSignB + wc * kSignC)) * inv;
         Corners args = z * M_SQRT1_2, halfSquares = -0.5 * z * z, erfs, exps;
-        erfExp8(reinterpret_cast<const double*>(&args), reinterpret_cast<const double*>(&halfSquares),
-                reinterpret_cast<double*>(&erfs), reinterpret_cast<double*>(&exps));
+        erfExp8(reinterpret_cast<const double*>(&args), reinterpret_cast<const double*>(&halfSquares), reinterpret_cast<double*>(&erfs),
+                reinterpret_cast<double*>(&exps));
         const Corners F = kDifference * ((z * z + 1.0) * (0.5 + 0.5 * erfs) + z * (norm * exps));
         double sum = 0;
         for (int k = 0; k < 8; ++k) sum += F[k];

@@ -1,8 +1,8 @@
 #include "gpisvdb/kacrice/kac_rice.h"
 
+#include <cmath>
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
-#include <cmath>
 
 #include "core/simd_lanes.h"
 
@@ -53,9 +53,8 @@ using simd::ULanes;
 /// sums[0] = Σ‖X‖, sums[1..6] = Σ X Xᵀ/‖X‖ as (xx, yy, zz, xy, xz, yz), over X = m + L q for the rule's points.
 /// kNewton: 1/‖X‖ by Newton's iteration instead of a square root and a division (see qmcSums below).
 template <bool kNewton>
-inline __attribute__((always_inline)) void qmcSumsBody(const double* m, const double (*L)[3], const double* q0,
-                                                       const double* q1, const double* q2, const double* weight,
-                                                       std::size_t count, double* sums) {
+inline __attribute__((always_inline)) void qmcSumsBody(const double* m, const double (*L)[3], const double* q0, const double* q1,
+                                                       const double* q2, const double* weight, std::size_t count, double* sums) {
     Lanes acc[7];
     for (auto& a : acc)
         for (int l = 0; l < kLanes; ++l) a[l] = 0;
@@ -103,15 +102,14 @@ inline __attribute__((always_inline)) void qmcSumsBody(const double* m, const do
     }
 }
 
-GPISVDB_SIMD_CLONES void qmcSumsPortable(const double* m, const double (*L)[3], const double* q0, const double* q1,
-                                           const double* q2, const double* weight, std::size_t count, double* sums) {
+GPISVDB_SIMD_CLONES void qmcSumsPortable(const double* m, const double (*L)[3], const double* q0, const double* q1, const double* q2,
+                                         const double* weight, std::size_t count, double* sums) {
     qmcSumsBody<false>(m, L, q0, q1, q2, weight, count, sums);
 }
 
 #if defined(__GNUC__) && defined(__x86_64__)
-__attribute__((target("avx512f,fma"))) void qmcSumsAvx512(const double* m, const double (*L)[3], const double* q0,
-                                                          const double* q1, const double* q2, const double* weight,
-                                                          std::size_t count, double* sums) {
+__attribute__((target("avx512f,fma"))) void qmcSumsAvx512(const double* m, const double (*L)[3], const double* q0, const double* q1,
+                                                          const double* q2, const double* weight, std::size_t count, double* sums) {
     qmcSumsBody<true>(m, L, q0, q1, q2, weight, count, sums);
 }
 #endif
@@ -119,8 +117,8 @@ __attribute__((target("avx512f,fma"))) void qmcSumsAvx512(const double* m, const
 /// With AVX-512 the Newton iteration makes the Kac–Rice stage 1.13–1.24× faster than the square root and the division
 /// (docs/benchmarks.md#heap-reuse); with AVX2 or SSE2 it was slower, so those keep the square root. The sums agree to
 /// rounding (tests: 1e-12 relative).
-void qmcSums(const double* m, const double (*L)[3], const double* q0, const double* q1, const double* q2,
-             const double* weight, std::size_t count, double* sums) {
+void qmcSums(const double* m, const double (*L)[3], const double* q0, const double* q1, const double* q2, const double* weight,
+             std::size_t count, double* sums) {
 #if defined(__GNUC__) && defined(__x86_64__)
     static const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("fma");
     if (avx512) return qmcSumsAvx512(m, L, q0, q1, q2, weight, count, sums);

@@ -1,9 +1,9 @@
 #include "gpisvdb/kacrice/kac_rice_voxel.h"
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <vector>
 
 #include "core/simd_lanes.h"
@@ -15,7 +15,7 @@ namespace {
 
 /// g = m + L q and x = r − βᵀ L q at the rule's points (by coordinate, padded).
 GPISVDB_SIMD_CLONES void gradientSamples(const QmcRule& rule, const double (*L)[3], const double* m, const double* beta, double r,
-                            double* gx, double* gy, double* gz, double* x) {
+                                         double* gx, double* gy, double* gz, double* x) {
     const double *q0 = rule.coordinate(0).data(), *q1 = rule.coordinate(1).data(), *q2 = rule.coordinate(2).data();
     const std::size_t S = rule.weight().size();
     for (std::size_t k = 0; k < S; ++k) {
@@ -29,7 +29,7 @@ GPISVDB_SIMD_CLONES void gradientSamples(const QmcRule& rule, const double (*L)[
 
 /// sums[0] = Σ w ρ ‖g‖, sums[1..6] = Σ w ρ g gᵀ/‖g‖ as (xx, yy, zz, xy, xz, yz), w the rule's weights (0: padding).
 GPISVDB_SIMD_CLONES void weightedMoments(const QmcRule& rule, const double* gx, const double* gy, const double* gz, const double* rho,
-                            double* sums) {
+                                         double* sums) {
     const double* weight = rule.weight().data();
     double acc[7] = {0, 0, 0, 0, 0, 0, 0};
     const std::size_t S = rule.weight().size();

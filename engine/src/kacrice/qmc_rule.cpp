@@ -32,9 +32,9 @@ std::vector<std::uint32_t> directions(int s, std::uint32_t a, std::vector<std::u
 
 QmcRule::QmcRule(int samples) {
     if (samples < 1 || samples > (1 << 24))
-        throw ParameterError("the QMC point count S (BandOptions::qmcSamples) must be in [1, 16777216] (got " +
-                                 std::to_string(samples) + ")",
-                             {"BandOptions::qmcSamples"});
+        throw ParameterError(
+            "the QMC point count S (BandOptions::qmcSamples) must be in [1, 16777216] (got " + std::to_string(samples) + ")",
+            {"BandOptions::qmcSamples"});
     // Dimension 1: van der Corput; 2: x + 1; 3: x² + x + 1 (Joe–Kuo: s = 2, a = 1, m = 1, 3).
     const std::vector<std::uint32_t> dirs[3] = {{}, directions(1, 0, {1}), directions(2, 1, {1, 3})};
     std::vector<std::uint32_t> v0(kBits);

@@ -14,8 +14,8 @@ constexpr int kPairs[10][2] = {{0, 0}, {0, 1}, {0, 2}, {0, 3}, {1, 1}, {1, 2}, {
 }  // namespace
 
 const std::array<const char*, 14>& ModelError::names() {
-    static const std::array<const char*, 14> n = {"gamma", "gx", "gy", "gz", "c00", "c01", "c02",
-                                                  "c03", "c11", "c12", "c13", "c22", "c23", "c33"};
+    static const std::array<const char*, 14> n = {"gamma", "gx",  "gy",  "gz",  "c00", "c01", "c02",
+                                                  "c03",   "c11", "c12", "c13", "c22", "c23", "c33"};
     return n;
 }
 

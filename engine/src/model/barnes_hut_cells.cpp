@@ -6,15 +6,15 @@
 #include <cmath>
 #include <cstdint>
 #include <mutex>
-#include <tuple>
 #include <tbb/blocked_range.h>
 #include <tbb/concurrent_hash_map.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+#include <tuple>
 
 #include "contributions.h"
-#include "gpisvdb/model/barnes_hut_gpis.h"
 #include "core/morton.h"
+#include "gpisvdb/model/barnes_hut_gpis.h"
 
 namespace gpisvdb {
 
@@ -212,8 +212,7 @@ std::size_t BarnesHutGpis::cellCacheLimit() const { return cells_ ? sizedCellCac
 double BarnesHutGpis::expectedDenseCacheBytes() const {
     if (!cells_) return 0;
     const CellCache& cache = sizedCellCache();
-    const double expected = std::min(1.5 * double(cache.sampleCells) * double(tableBytesEstimate(options_.cellNodes)),
-                                     double(cache.limit));
+    const double expected = std::min(1.5 * double(cache.sampleCells) * double(tableBytesEstimate(options_.cellNodes)), double(cache.limit));
     return std::max(0.0, expected - double(cache.bytes.load()));
 }
 

@@ -1,33 +1,34 @@
 #include "gpisvdb/model/barnes_hut_gpis.h"
 
-#include <Eigen/Eigenvalues>
 #include <array>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 
 #include "contributions.h"
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb {
 
-BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOptions& options)
-    : kernel_(s), options_(options) {
+BarnesHutGpis::BarnesHutGpis(const Samples& samples, double s, const BarnesHutOptions& options) : kernel_(s), options_(options) {
     if (!(options.beta > 1) || !std::isfinite(options.beta))
-        throw ParameterError("the Barnes-Hut opening criterion β (BarnesHutOptions::beta) must be finite and > 1 (got " +
-                                 numberText(options.beta) + ")",
-                             {"BarnesHutOptions::beta"});
+        throw ParameterError(
+            "the Barnes-Hut opening criterion β (BarnesHutOptions::beta) must be finite and > 1 (got " + numberText(options.beta) + ")",
+            {"BarnesHutOptions::beta"});
     if (!(options.covarianceRatio >= 1) || !std::isfinite(options.covarianceRatio))
         throw ParameterError("the covariance's opening ratio (BarnesHutOptions::covarianceRatio) must be finite and >= 1 (got " +
                                  numberText(options.covarianceRatio) + ")",
                              {"BarnesHutOptions::covarianceRatio"});
     if (options.leafSize < 1) throw ParameterError("the Barnes-Hut leaf size must be >= 1");
     if (!(options.cellWidth >= 0) || !std::isfinite(options.cellWidth))
-        throw ParameterError("the far field's cell width (BarnesHutOptions::cellWidth) must be finite and >= 0 (got " +
-                                 numberText(options.cellWidth) + ")",
-                             {"BarnesHutOptions::cellWidth"});
+        throw ParameterError(
+            "the far field's cell width (BarnesHutOptions::cellWidth) must be finite and >= 0 (got " + numberText(options.cellWidth) + ")",
+            {"BarnesHutOptions::cellWidth"});
     if (options.cellWidth > 0 && !std::isnormal(options.cellWidth * s))
-        throw ParameterError("the far field's cell width (BarnesHutOptions::cellWidth) times the smoothing is not a normal "
-                             "number (got " + numberText(options.cellWidth) + " × " + numberText(s) + "): use 0 or a width near 12",
-                             {"BarnesHutOptions::cellWidth"});
+        throw ParameterError(
+            "the far field's cell width (BarnesHutOptions::cellWidth) times the smoothing is not a normal "
+            "number (got " +
+                numberText(options.cellWidth) + " × " + numberText(s) + "): use 0 or a width near 12",
+            {"BarnesHutOptions::cellWidth"});
     if (options.cellNodes < 2 || options.cellNodes > 8)
         throw ParameterError("the cells' Chebyshev nodes per axis (BarnesHutOptions::cellNodes) must be 2 to 8 (got " +
                                  std::to_string(options.cellNodes) + ")",

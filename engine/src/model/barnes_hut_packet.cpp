@@ -10,8 +10,8 @@
 #include <tbb/parallel_for.h>
 
 #include "contributions.h"
-#include "gpisvdb/model/barnes_hut_gpis.h"
 #include "core/morton.h"
+#include "gpisvdb/model/barnes_hut_gpis.h"
 #include "packet_lanes.h"
 #include "packet_near_field.h"
 
@@ -77,9 +77,9 @@ GPISVDB_LANES_INLINE LaneKernel kernelAt(const RegularizedKernel& kernel, const 
     return F;
 }
 
-
 /// The mean's second-order far field of one node (addFarMean), times `on`.
-GPISVDB_LANES_INLINE void farMean(const BarnesHutGpis::MeanMoments& mm, const LaneVec3& y, const LaneKernel& F, const Lanes& on, LaneSums& s) {
+GPISVDB_LANES_INLINE void farMean(const BarnesHutGpis::MeanMoments& mm, const LaneVec3& y, const LaneKernel& F, const Lanes& on,
+                                  LaneSums& s) {
     const Mat3d& M1 = mm.m1;
     const Vec3d& tr = mm.m2trace;
     const Vec3d& um = mm.m2mixed;
@@ -121,8 +121,8 @@ GPISVDB_LANES_INLINE Lanes quadratic(const double (&M)[3][3], const LaneVec3& y,
 /// −Σ_l ∂_l E(y; M_l) with M_l = B_l = Σ σ² δ_l w wᵀ (resp. C_l = Σ δ_l Σ'); ∂_l acts on y and on F_k (∂_l F_k =
 /// F_{k+1} y_l), and contracts over l into T1 = y·τ_l, T2 = y·m_l, T3 = u·y (u_j = Σ_l (M_l)_jl), Σ_l y_l M_l and
 /// Σ_l y_l M_l y. About 350 lane operations instead of the ≈ 1 400 of forming Q_m, K and their products.
-GPISVDB_LANES_INLINE void farCovariance(const BarnesHutGpis::CovarianceMoments& cm, const LaneVec3& y, const Lanes& t,
-                                        const LaneKernel& F, const Lanes& on, LaneSums& s) {
+GPISVDB_LANES_INLINE void farCovariance(const BarnesHutGpis::CovarianceMoments& cm, const LaneVec3& y, const Lanes& t, const LaneKernel& F,
+                                        const Lanes& on, LaneSums& s) {
     // Every term is quadratic in (F1…F4): masking them masks the terms.
     const Lanes a = on * F.F1, b = on * F.F2, c = on * F.F3, d = on * F.F4;
     // === The node's constants: B_l(m,n) = posB[n](l,m), C_l = nrmC[l]
@@ -151,21 +151,20 @@ GPISVDB_LANES_INLINE void farCovariance(const BarnesHutGpis::CovarianceMoments& 
         VyB[i] = y[0] * vB[0][i] + y[1] * vB[1][i] + y[2] * vB[2][i], VyC[i] = y[0] * vC[0][i] + y[1] * vC[1][i] + y[2] * vC[2][i];
     // === Coefficients of E (pos: position noise, nrm: normal noise) and of their derivatives ∂/∂t·2
     const Lanes aa = a * a, ab = a * b, bb = b * b, ac = a * c, bc = b * c, bt = b * t, ct = c * t, dt = d * t;
-    const Lanes alpha2 = 2.0 * ab + bb * t;           // pos (0,0) · m
-    const Lanes beta2 = 2.0 * bb + c * (a + bt);      // pos (0,i) · m y_i
-    const Lanes beta3 = b * (2.0 * a + bt);           // pos (0,i) · v_i
-    const Lanes gamma2 = c * (4.0 * b + ct);          // pos (i,j) · m y_i y_j
-    const Lanes gamma3 = b * (3.0 * b + ct);          // pos (i,j) · (y_i v_j + v_i y_j)
+    const Lanes alpha2 = 2.0 * ab + bb * t;                // pos (0,0) · m
+    const Lanes beta2 = 2.0 * bb + c * (a + bt);           // pos (0,i) · m y_i
+    const Lanes beta3 = b * (2.0 * a + bt);                // pos (0,i) · v_i
+    const Lanes gamma2 = c * (4.0 * b + ct);               // pos (i,j) · m y_i y_j
+    const Lanes gamma3 = b * (3.0 * b + ct);               // pos (i,j) · (y_i v_j + v_i y_j)
     const Lanes dA2 = 4.0 * bb + 2.0 * ac + 2.0 * b * ct;  // = d beta3
-    const Lanes dB1 = bb + ac;                        // = d(ab)
+    const Lanes dB1 = bb + ac;                             // = d(ab)
     const Lanes dB2 = 7.0 * bc + a * d + c * ct + b * dt;
-    const Lanes dG1 = 2.0 * bc;                       // = d(b²)
+    const Lanes dG1 = 2.0 * bc;  // = d(b²)
     const Lanes dG2 = 6.0 * c * c + 4.0 * b * d + 2.0 * c * dt;
     const Lanes dG3 = 8.0 * bc + c * ct + b * dt;
-    const Lanes dG4 = 2.0 * b * ct + 2.0 * bb;        // = d(b² t)
+    const Lanes dG4 = 2.0 * b * ct + 2.0 * bb;  // = d(b² t)
     // === Row 0
-    s.cov[0][0] += aa * tauW + alpha2 * mW + aa * mS -
-                   (2.0 * ab * T1B + dA2 * T2B + 2.0 * alpha2 * T3B + 2.0 * ab * T2C + 2.0 * aa * T3C);
+    s.cov[0][0] += aa * tauW + alpha2 * mW + aa * mS - (2.0 * ab * T1B + dA2 * T2B + 2.0 * alpha2 * T3B + 2.0 * ab * T2C + 2.0 * aa * T3C);
     const Lanes cy = ab * tauW + beta2 * mW + ab * mS - (dB1 * T1B + dB2 * T2B + 2.0 * beta2 * T3B + dB1 * T2C + 2.0 * ab * T3C);
     for (int i = 0; i < 3; ++i)
         s.cov[0][1 + i] += cy * y[i] + beta3 * vW[i] + aa * vS[i] -
@@ -182,8 +181,8 @@ GPISVDB_LANES_INLINE void farCovariance(const BarnesHutGpis::CovarianceMoments& 
         for (int j = i; j < 3; ++j) {
             Lanes myB = y[0] * B[0][i][j] + y[1] * B[1][i][j] + y[2] * B[2][i][j];
             Lanes myC = y[0] * C[0][i][j] + y[1] * C[1][i][j] + y[2] * C[2][i][j];
-            Lanes v = cYY * y[i] * y[j] + y[i] * R[j] + R[i] * y[j] + btt * Wm[i][j] + aa * Sm[i][j] -
-                      gamma3 * (vB[i][j] + vB[j][i]) - ab * (vC[i][j] + vC[j][i]) - dG4 * myB - ab2 * myC;
+            Lanes v = cYY * y[i] * y[j] + y[i] * R[j] + R[i] * y[j] + btt * Wm[i][j] + aa * Sm[i][j] - gamma3 * (vB[i][j] + vB[j][i]) -
+                      ab * (vC[i][j] + vC[j][i]) - dG4 * myB - ab2 * myC;
             if (i == j) v += cD;
             s.cov[1 + i][1 + j] += v;
         }
@@ -233,7 +232,6 @@ GPISVDB_LANES_INLINE void sample(const Vec3d& w, double var, const Sym3& N, cons
     }
 }
 
-
 }  // namespace
 
 // (GPISVDB_SIMD_CLONES, in core/simd_lanes.h: one clone of the traversal per instruction set.)
@@ -242,11 +240,11 @@ GPISVDB_LANES_INLINE void sample(const Vec3d& w, double var, const Sym3& N, cons
 struct PacketTraversal {
     /// From the given roots (the tree's root: evaluate(x)'s nodes; a cell's roots: the rest of its points' nodes).
     GPISVDB_SIMD_CLONES static void run(const BarnesHutGpis& bh, const BarnesHutGpis::Root* roots, std::size_t rootCount,
-                                          const double (*xs)[kLanes], double (*meanOut)[kLanes], double (*covOut)[4][kLanes]);
+                                        const double (*xs)[kLanes], double (*meanOut)[kLanes], double (*covOut)[4][kLanes]);
     /// The far expansions of the listed nodes (mean, covariance) at every lane, whatever the opening tests say.
     GPISVDB_SIMD_CLONES static void far(const BarnesHutGpis& bh, const std::uint32_t* meanNodes, std::size_t meanCount,
-                                          const std::uint32_t* covNodes, std::size_t covCount, const double (*xs)[kLanes],
-                                          double (*meanOut)[kLanes], double (*covOut)[4][kLanes]);
+                                        const std::uint32_t* covNodes, std::size_t covCount, const double (*xs)[kLanes],
+                                        double (*meanOut)[kLanes], double (*covOut)[4][kLanes]);
 };
 
 namespace {
@@ -261,9 +259,8 @@ GPISVDB_LANES_INLINE void store(const LaneSums& sums, double (*meanOut)[kLanes],
 
 }  // namespace
 
-void PacketTraversal::far(const BarnesHutGpis& bh, const std::uint32_t* meanNodes, std::size_t meanCount,
-                          const std::uint32_t* covNodes, std::size_t covCount, const double (*xs)[kLanes],
-                          double (*meanOut)[kLanes], double (*covOut)[4][kLanes]) {
+void PacketTraversal::far(const BarnesHutGpis& bh, const std::uint32_t* meanNodes, std::size_t meanCount, const std::uint32_t* covNodes,
+                          std::size_t covCount, const double (*xs)[kLanes], double (*meanOut)[kLanes], double (*covOut)[4][kLanes]) {
     LaneVec3 x;
     for (int d = 0; d < 3; ++d)
         for (int l = 0; l < kLanes; ++l) x[d][l] = xs[d][l];
@@ -289,8 +286,8 @@ void PacketTraversal::far(const BarnesHutGpis& bh, const std::uint32_t* meanNode
     store(sums, meanOut, covOut);
 }
 
-void PacketTraversal::run(const BarnesHutGpis& bh, const BarnesHutGpis::Root* roots, std::size_t rootCount,
-                          const double (*xs)[kLanes], double (*meanOut)[kLanes], double (*covOut)[4][kLanes]) {
+void PacketTraversal::run(const BarnesHutGpis& bh, const BarnesHutGpis::Root* roots, std::size_t rootCount, const double (*xs)[kLanes],
+                          double (*meanOut)[kLanes], double (*covOut)[4][kLanes]) {
     const auto& nodes_ = bh.nodes_;
     const auto& meanMoments_ = bh.meanMoments_;
     const auto& covMoments_ = bh.covMoments_;
@@ -362,20 +359,18 @@ void PacketTraversal::run(const BarnesHutGpis& bh, const BarnesHutGpis::Root* ro
             }
             continue;
         }
-        for (int c = node.childCount - 1; c >= 0; --c)
-            stack[top++] = {node.firstChild + std::uint32_t(c), e.doneMean, e.doneCov};
+        for (int c = node.childCount - 1; c >= 0; --c) stack[top++] = {node.firstChild + std::uint32_t(c), e.doneMean, e.doneCov};
     }
     store(sums, meanOut, covOut);
 }
 
-void BarnesHutGpis::traversePacket(const Root* roots, std::size_t rootCount, const double (*xs)[kPacket],
-                                   double (*mean)[kPacket], double (*cov)[4][kPacket]) const {
+void BarnesHutGpis::traversePacket(const Root* roots, std::size_t rootCount, const double (*xs)[kPacket], double (*mean)[kPacket],
+                                   double (*cov)[4][kPacket]) const {
     PacketTraversal::run(*this, roots, rootCount, xs, mean, cov);
 }
 
-void BarnesHutGpis::farPacket(const std::uint32_t* meanNodes, std::size_t meanCount, const std::uint32_t* covNodes,
-                              std::size_t covCount, const double (*xs)[kPacket], double (*mean)[kPacket],
-                              double (*cov)[4][kPacket]) const {
+void BarnesHutGpis::farPacket(const std::uint32_t* meanNodes, std::size_t meanCount, const std::uint32_t* covNodes, std::size_t covCount,
+                              const double (*xs)[kPacket], double (*mean)[kPacket], double (*cov)[4][kPacket]) const {
     PacketTraversal::far(*this, meanNodes, meanCount, covNodes, covCount, xs, mean, cov);
 }
 

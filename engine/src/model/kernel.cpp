@@ -9,7 +9,7 @@ namespace gpisvdb {
 namespace {
 constexpr double kSwitchAR = 2.0;  // series below a·r = 2: terms (a²t)^m/m! stay ≤ 4^m/m!, no cancellation
 constexpr int kSeriesTerms = RegularizedKernel::kSeriesTerms;
-constexpr double kFarAR = 8.0;     // beyond a·r = 8, erf = 1 and exp(−a²r²)·(ar)^8 < 1e-20: pure Newton terms
+constexpr double kFarAR = 8.0;  // beyond a·r = 8, erf = 1 and exp(−a²r²)·(ar)^8 < 1e-20: pure Newton terms
 
 }  // namespace
 
@@ -26,8 +26,7 @@ const RegularizedKernel::Series& RegularizedKernel::series() {
 }
 
 RegularizedKernel::RegularizedKernel(double s) : s_(s) {
-    if (!(s > 0) || !std::isfinite(s))
-        throw ParameterError("smoothing length s must be finite and > 0 (got " + std::to_string(s) + ")");
+    if (!(s > 0) || !std::isfinite(s)) throw ParameterError("smoothing length s must be finite and > 0 (got " + std::to_string(s) + ")");
     a_ = 1.0 / (std::sqrt(2.0) * s);
     a2_ = a_ * a_;
     c_ = 2.0 * a_ / std::sqrt(M_PI);
@@ -68,8 +67,7 @@ RadialDerivatives RegularizedKernel::at(double t) const {
     F.F1 = -E * ir * u + g * u;
     F.F2 = 3.0 * E * ir * u * u - g * (3.0 * u * u + 2.0 * a2 * u);
     F.F3 = -15.0 * E * ir * u * u * u + g * (15.0 * u * u * u + 10.0 * a2 * u * u + 4.0 * a4 * u);
-    F.F4 = 105.0 * E * ir * u * u * u * u -
-           g * (105.0 * u * u * u * u + 70.0 * a2 * u * u * u + 28.0 * a4 * u * u + 8.0 * a6 * u);
+    F.F4 = 105.0 * E * ir * u * u * u * u - g * (105.0 * u * u * u * u + 70.0 * a2 * u * u * u + 28.0 * a4 * u * u + 8.0 * a6 * u);
     return F;
 }
 

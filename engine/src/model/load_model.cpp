@@ -49,9 +49,9 @@ bool orientOutward(InputSamples& input, const GpisModel& winding) {
 
 LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
     if (!(options.smoothingRel > 0) || !std::isfinite(options.smoothingRel))
-        throw ParameterError("the kernel smoothing (ModelOptions::smoothingRel) must be finite and > 0 (got " +
-                                 numberText(options.smoothingRel) + ")",
-                             {"ModelOptions::smoothingRel"});
+        throw ParameterError(
+            "the kernel smoothing (ModelOptions::smoothingRel) must be finite and > 0 (got " + numberText(options.smoothingRel) + ")",
+            {"ModelOptions::smoothingRel"});
     LoadedModel m;
     if (!(options.noiseSmoothing >= 0) || !std::isfinite(options.noiseSmoothing))
         throw ParameterError("the noise smoothing factor (ModelOptions::noiseSmoothing) must be finite and >= 0 (got " +
@@ -65,8 +65,7 @@ LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
         m.smoothing = fromNoise, m.smoothingSource = SmoothingSource::Noise;
     if (options.kind == ModelKind::Regression) {
         // === Orientation: the generated labels' inside and outside follow the normals
-        if (options.orientOutward && !options.labels)
-            orientOutward(m.input, *windingModel(m.input.samples, m.smoothing, options));
+        if (options.orientOutward && !options.labels) orientOutward(m.input, *windingModel(m.input.samples, m.smoothing, options));
         // Labels generated from the samples, or given; the kernel smoothing relative to the training spacing, as
         // the winding model's is to ℓ.
         double spacing = 0;

@@ -12,7 +12,6 @@ namespace gpisvdb {
 
 namespace {
 
-
 // === The near field in float: two samples × the packet's points in one instruction (docs/model.md#packets)
 // A leaf's samples are summed exactly, and they dominate the cost (≈ 1 000 per packet against ≈ 360 far nodes). In
 // units of the smoothing s (ŷ = y/s, ŵ = w/s², …) every quantity is of order one, so float holds them at any
@@ -32,8 +31,7 @@ GPISVDB_LANES_INLINE PairLanes pairSplat(float v) {
 /// 0…7, of the second in 8…15, in one permutation (building it lane by lane cost 18 % of the traversal, measured).
 template <int k>
 GPISVDB_LANES_INLINE PairLanes field(const PairLanes& first, const PairLanes& second) {
-    return __builtin_shufflevector(first, second, k, k, k, k, k, k, k, k, 16 + k, 16 + k, 16 + k, 16 + k, 16 + k, 16 + k,
-                                   16 + k, 16 + k);
+    return __builtin_shufflevector(first, second, k, k, k, k, k, k, k, k, 16 + k, 16 + k, 16 + k, 16 + k, 16 + k, 16 + k, 16 + k, 16 + k);
 }
 
 /// The smallest and largest lane, by halving (a reduction the compiler would not reorder on its own).
@@ -208,9 +206,9 @@ struct PairSums {
 
 /// Two samples' exact shares (sample(), in float lanes, units of s): lanes 0…7 sample i, 8…15 sample j, whose
 /// records are loaded in `first` and `second`.
-GPISVDB_LANES_INLINE void samplePair(const PairLanes& first, const PairLanes& second, const PairVec3& y,
-                                     const PairLanes& t, const PairKernel& F, const PairLanes& mean, const PairLanes& cov,
-                                     bool anyMean, bool anyCov, PairSums& s) {
+GPISVDB_LANES_INLINE void samplePair(const PairLanes& first, const PairLanes& second, const PairVec3& y, const PairLanes& t,
+                                     const PairKernel& F, const PairLanes& mean, const PairLanes& cov, bool anyMean, bool anyCov,
+                                     PairSums& s) {
     const PairLanes w[3] = {field<0>(first, second), field<1>(first, second), field<2>(first, second)};
     const PairLanes p = y[0] * w[0] + y[1] * w[1] + y[2] * w[2];
     if (anyMean) {
@@ -255,9 +253,8 @@ GPISVDB_LANES_INLINE void samplePair(const PairLanes& first, const PairLanes& se
 /// gradient block ×1/s²). Out of line, with clones of its own, so that a profile shows the near field apart from the
 /// traversal (docs/benchmarks.md#near-field-floor); the band is no slower for it (measured there).
 __attribute__((noinline)) GPISVDB_SIMD_CLONES void nearField(const NearKernel& kernel, const std::vector<Vec3d>& position,
-                                                               const BarnesHutGpis::NearSample* near, std::uint32_t begin,
-                                                               std::uint32_t end, const LaneVec3& x, LaneMask wantMean,
-                                                               LaneMask wantCov, LaneSums& sums) {
+                                                             const BarnesHutGpis::NearSample* near, std::uint32_t begin, std::uint32_t end,
+                                                             const LaneVec3& x, LaneMask wantMean, LaneMask wantCov, LaneSums& sums) {
     PairSums ps;
     for (auto& m : ps.mean) m = pairSplat(0);
     for (auto& row : ps.cov)
@@ -279,8 +276,8 @@ __attribute__((noinline)) GPISVDB_SIMD_CLONES void nearField(const NearKernel& k
             Lanes yi = (x[d] - position[i][d]) * kernel.inverseS, yj = (x[d] - position[j][d]) * kernel.inverseS;
             yi = yi > kFloatReach ? kFloatReach : yi < -kFloatReach ? -kFloatReach : yi;
             yj = yj > kFloatReach ? kFloatReach : yj < -kFloatReach ? -kFloatReach : yj;
-            y[d] = __builtin_shufflevector(__builtin_convertvector(yi, HalfLanes), __builtin_convertvector(yj, HalfLanes), 0, 1,
-                                           2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+            y[d] = __builtin_shufflevector(__builtin_convertvector(yi, HalfLanes), __builtin_convertvector(yj, HalfLanes), 0, 1, 2, 3, 4, 5,
+                                           6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
         }
         const PairLanes t = y[0] * y[0] + y[1] * y[1] + y[2] * y[2];
         const PairKernel F = kernelAtPair(kernel, t);

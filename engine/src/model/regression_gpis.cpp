@@ -3,8 +3,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <Eigen/Cholesky>
 #include <cmath>
+#include <Eigen/Cholesky>
 #include <limits>
 
 #include "gpisvdb/core/errors.h"
@@ -17,8 +17,12 @@ namespace gpisvdb {
 LabelledPoints trainingFromSamples(const Samples& samples, const TrainingOptions& o, double* spacing) {
     const std::size_t N = samples.size();
     if (N == 0) throw InputError("regression GPIS: the input has no samples");
-    if (o.surfacePoints < 1) throw ParameterError("the training surface points (TrainingOptions::surfacePoints) must be >= 1", {"TrainingOptions::surfacePoints"});
-    if (!(o.offsetRelative > 0) || !std::isfinite(o.offsetRelative)) throw ParameterError("the training label offset (TrainingOptions::offsetRelative) must be finite and > 0", {"TrainingOptions::offsetRelative"});
+    if (o.surfacePoints < 1)
+        throw ParameterError("the training surface points (TrainingOptions::surfacePoints) must be >= 1",
+                             {"TrainingOptions::surfacePoints"});
+    if (!(o.offsetRelative > 0) || !std::isfinite(o.offsetRelative))
+        throw ParameterError("the training label offset (TrainingOptions::offsetRelative) must be finite and > 0",
+                             {"TrainingOptions::offsetRelative"});
     const std::size_t n = std::min(o.surfacePoints, N);
     // Farthest-point sampling: each new point is the sample farthest from those chosen (ties: lowest index).
     std::vector<std::size_t> chosen{0};
@@ -67,12 +71,12 @@ LabelledPoints readLabelledPoints(const std::string& path) {
 // === The model
 
 struct RegressionGpis::Impl {
-    std::vector<Vec3d> x;       // training points
-    Eigen::MatrixXd L;          // K = L Lᵀ
-    Eigen::VectorXd weights;    // K⁻¹ (y − m₀)
+    std::vector<Vec3d> x;     // training points
+    Eigen::MatrixXd L;        // K = L Lᵀ
+    Eigen::VectorXd weights;  // K⁻¹ (y − m₀)
     RegularizedKernel kernel;
-    double scale = 0;           // a / ρ(0)
-    double amplitude = 0;       // a
+    double scale = 0;             // a / ρ(0)
+    double amplitude = 0;         // a
     double gradientVariance = 0;  // −a F₁(0) / F₀(0)
     double priorMean = 0;
 
@@ -113,13 +117,19 @@ struct RegressionGpis::Impl {
 };
 
 RegressionGpis::RegressionGpis(LabelledPoints t, const RegressionGpisOptions& o) {
-    if (!(o.smoothing > 0) || !std::isfinite(o.smoothing)) throw ParameterError("regression GPIS: the kernel smoothing must be finite and > 0");
-    if (!(o.amplitude > 0) || !std::isfinite(o.amplitude)) throw ParameterError("regression GPIS: the prior variance (RegressionGpisOptions::amplitude) must be finite and > 0", {"RegressionGpisOptions::amplitude"});
-    if (!(o.labelNoise >= 0) || !std::isfinite(o.labelNoise)) throw ParameterError("regression GPIS: the label noise (RegressionGpisOptions::labelNoise) must be finite and >= 0", {"RegressionGpisOptions::labelNoise"});
+    if (!(o.smoothing > 0) || !std::isfinite(o.smoothing))
+        throw ParameterError("regression GPIS: the kernel smoothing must be finite and > 0");
+    if (!(o.amplitude > 0) || !std::isfinite(o.amplitude))
+        throw ParameterError("regression GPIS: the prior variance (RegressionGpisOptions::amplitude) must be finite and > 0",
+                             {"RegressionGpisOptions::amplitude"});
+    if (!(o.labelNoise >= 0) || !std::isfinite(o.labelNoise))
+        throw ParameterError("regression GPIS: the label noise (RegressionGpisOptions::labelNoise) must be finite and >= 0",
+                             {"RegressionGpisOptions::labelNoise"});
     if (!std::isfinite(o.priorMean)) throw ParameterError("regression GPIS: the prior mean must be finite");
     const std::size_t n = t.size();
     if (n == 0) throw InputError("regression GPIS: no labelled points");
-    if (t.label.size() != n || (!t.noise.empty() && t.noise.size() != n)) throw InputError("regression GPIS: labels and points differ in number");
+    if (t.label.size() != n || (!t.noise.empty() && t.noise.size() != n))
+        throw InputError("regression GPIS: labels and points differ in number");
     for (std::size_t i = 0; i < n; ++i)
         if (!t.position[i].allFinite() || !std::isfinite(t.label[i]))
             throw InputError("regression GPIS: labelled point " + std::to_string(i + 1) + " is not finite");
@@ -136,7 +146,8 @@ RegressionGpis::RegressionGpis(LabelledPoints t, const RegressionGpisOptions& o)
     Eigen::MatrixXd K(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i)
-            for (std::size_t j = 0; j < n; ++j) K(Eigen::Index(i), Eigen::Index(j)) = m.scale * m.kernel.at((m.x[i] - m.x[j]).squaredNorm()).F0;
+            for (std::size_t j = 0; j < n; ++j)
+                K(Eigen::Index(i), Eigen::Index(j)) = m.scale * m.kernel.at((m.x[i] - m.x[j]).squaredNorm()).F0;
     });
     for (std::size_t i = 0; i < n; ++i) {
         const double s = t.noise.empty() ? o.labelNoise : t.noise[i];
@@ -144,9 +155,10 @@ RegressionGpis::RegressionGpis(LabelledPoints t, const RegressionGpisOptions& o)
     }
     Eigen::LLT<Eigen::MatrixXd> llt(K);
     if (llt.info() != Eigen::Success)
-        throw Error("regression GPIS: the kernel matrix of the " + std::to_string(n) +
-                    " labelled points is not positive definite (repeated points?): raise the label noise (RegressionGpisOptions::labelNoise)",
-                    {"RegressionGpisOptions::labelNoise"});
+        throw Error(
+            "regression GPIS: the kernel matrix of the " + std::to_string(n) +
+                " labelled points is not positive definite (repeated points?): raise the label noise (RegressionGpisOptions::labelNoise)",
+            {"RegressionGpisOptions::labelNoise"});
     m.L = llt.matrixL();
     Eigen::VectorXd y(static_cast<Eigen::Index>(n));
     for (std::size_t i = 0; i < n; ++i) y[Eigen::Index(i)] = t.label[i] - o.priorMean;
@@ -170,8 +182,8 @@ ValueGradient RegressionGpis::evaluate(const Vec3d& x) const {
 
 std::vector<ValueGradient> RegressionGpis::evaluate(const std::vector<Vec3d>& xs, const Progress& progress) const {
     std::vector<ValueGradient> out(xs.size());
-    constexpr std::size_t kBlock = 32;   // points per triangular solve (fixed: results independent of threads)
-    constexpr std::size_t kChunk = 4096; // points between progress updates
+    constexpr std::size_t kBlock = 32;    // points per triangular solve (fixed: results independent of threads)
+    constexpr std::size_t kChunk = 4096;  // points between progress updates
     for (std::size_t b = 0; b < xs.size(); b += kChunk) {
         progress.checkInterrupt();
         progress.update("evaluate", double(b) / double(xs.size()));

@@ -74,7 +74,8 @@ void gradientTranspose(const Band& band, const std::vector<float>& v, std::vecto
     checkSize(v.size(), 3 * band.size(), "gradientTranspose");
     out.resize(band.size());
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        out[i] = float(transposeDifference(band, i, acc, [&](std::size_t j, int c) { return double(v[3 * j + std::size_t(c)]); }, bc));
+        out[i] = float(transposeDifference(
+            band, i, acc, [&](std::size_t j, int c) { return double(v[3 * j + std::size_t(c)]); }, bc));
     });
 }
 
@@ -101,9 +102,8 @@ void divPhi(const Band& band, const std::vector<float>& V, std::vector<float>& o
     out.resize(band.size());
     // (D_φ V)_i = (1/μ_i) Σ_c (μ_{i−e_c} V_{i−e_c,c} − μ_i V_{i,c}) / h: the h³ of M cancels.
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        const double s = transposeDifference(band, i, acc, [&](std::size_t j, int c) {
-            return double(band.mu[j]) * double(V[3 * j + std::size_t(c)]);
-        }, bc);
+        const double s = transposeDifference(
+            band, i, acc, [&](std::size_t j, int c) { return double(band.mu[j]) * double(V[3 * j + std::size_t(c)]); }, bc);
         out[i] = float(s / double(band.mu[i]));
     });
 }
@@ -174,8 +174,7 @@ SparseMatrixF assembleNaiveLaplacian(const Band& band) {
 
 // === K = Gᵀ BlockDiag(h³ T) G, matrix-free
 
-NaiveLaplacianOperator::NaiveLaplacianOperator(const Band& band, Boundary bc)
-    : band_(band), bc_(bc), flux_(3 * band.size()) {}
+NaiveLaplacianOperator::NaiveLaplacianOperator(const Band& band, Boundary bc) : band_(band), bc_(bc), flux_(3 * band.size()) {}
 
 void NaiveLaplacianOperator::apply(const float* u, float* out) const {
     const Band& band = band_;
@@ -185,7 +184,8 @@ void NaiveLaplacianOperator::apply(const float* u, float* out) const {
         for (int c = 0; c < 3; ++c) flux_[3 * i + std::size_t(c)] = float(f[c]);
     });
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        out[i] = float(transposeDifference(band, i, acc, [&](std::size_t j, int c) { return double(flux_[3 * j + std::size_t(c)]); }, bc_));
+        out[i] = float(transposeDifference(
+            band, i, acc, [&](std::size_t j, int c) { return double(flux_[3 * j + std::size_t(c)]); }, bc_));
     });
 }
 
@@ -200,7 +200,8 @@ void NaiveLaplacianOperator::apply(const double* u, double* out) const {
         for (int c = 0; c < 3; ++c) fluxDouble_[3 * i + std::size_t(c)] = f[c];
     });
     forEachVoxel(band, [&](std::size_t i, auto& acc) {
-        out[i] = transposeDifference(band, i, acc, [&](std::size_t j, int c) { return fluxDouble_[3 * j + std::size_t(c)]; }, bc_);
+        out[i] = transposeDifference(
+            band, i, acc, [&](std::size_t j, int c) { return fluxDouble_[3 * j + std::size_t(c)]; }, bc_);
     });
 }
 

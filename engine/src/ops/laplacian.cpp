@@ -81,8 +81,7 @@ Matrix assembleLaplacianAs(const Band& band) {
         }
     });
     for (std::size_t i = 0; i < n; ++i) outer[i + 1] += outer[i];
-    if (outer[n] > std::numeric_limits<int>::max())
-        throw Error("the Laplacian has more than 2^31 entries: use a coarser voxel size");
+    if (outer[n] > std::numeric_limits<int>::max()) throw Error("the Laplacian has more than 2^31 entries: use a coarser voxel size");
     Matrix L(static_cast<int>(n), static_cast<int>(n));
     L.resizeNonZeros(static_cast<Eigen::Index>(outer[n]));
     for (std::size_t i = 0; i <= n; ++i) L.outerIndexPtr()[i] = int(outer[i]);
@@ -114,8 +113,7 @@ LaplacianSize laplacianSize(const Band& band) {
     const auto holds = [](const VoxelStencil& st, const Offset& e, int terms) {
         for (int k = 0; k < terms; ++k) {
             const Offset& o = st.offset[std::size_t(k)];
-            if ((o[0] == e[0] && o[1] == e[1] && o[2] == e[2]) || (o[0] == -e[0] && o[1] == -e[1] && o[2] == -e[2]))
-                return true;
+            if ((o[0] == e[0] && o[1] == e[1] && o[2] == e[2]) || (o[0] == -e[0] && o[1] == -e[1] && o[2] == -e[2])) return true;
         }
         return false;
     };
@@ -157,8 +155,8 @@ double assembledLaplacianBytes(const LaplacianSize& size, std::size_t scalarByte
 double laplacianAssemblyBytes(const LaplacianSize& size, std::size_t scalarBytes) {
     const double n = double(size.voxels), s = double(scalarBytes);
     // A contribution is a (column, value) pair, padded to the value's alignment
-    const double entry = double(scalarBytes == sizeof(float) ? sizeof(std::pair<std::int32_t, float>)
-                                                             : sizeof(std::pair<std::int32_t, double>));
+    const double entry =
+        double(scalarBytes == sizeof(float) ? sizeof(std::pair<std::int32_t, float>) : sizeof(std::pair<std::int32_t, double>));
     const double contributions = entry * double(size.contributions);
     const double rowStarts = 8.0 * (n + 1);  // std::size_t start, or std::int64_t outer
     const double emission = 4.0 * kStencilSlots * n + rowStarts + 8.0 * n /* cursor */ + s * n + contributions;

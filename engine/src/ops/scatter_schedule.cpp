@@ -38,9 +38,8 @@ ScatterSchedule makeScatterSchedule(const Band& band, int reach) {
         const int colour = (block.x() & 1) | ((block.y() & 1) << 1) | ((block.z() & 1) << 2);
         leaves.push_back({colour, block, begin, end});
     }
-    std::sort(leaves.begin(), leaves.end(), [](const Leaf& a, const Leaf& b) {
-        return std::tie(a.colour, a.block, a.begin) < std::tie(b.colour, b.block, b.begin);
-    });
+    std::sort(leaves.begin(), leaves.end(),
+              [](const Leaf& a, const Leaf& b) { return std::tie(a.colour, a.block, a.begin) < std::tie(b.colour, b.block, b.begin); });
     // === Blocks in colour order
     for (std::size_t l = 0; l < leaves.size(); ++l) {
         const bool newBlock = l == 0 || leaves[l].colour != leaves[l - 1].colour || leaves[l].block != leaves[l - 1].block;

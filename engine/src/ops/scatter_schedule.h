@@ -15,10 +15,10 @@
 namespace gpisvdb::detail {
 
 struct ScatterSchedule {
-    int blockSize = 8;                                        ///< S, index space voxels
+    int blockSize = 8;                                                ///< S, index space voxels
     std::vector<std::pair<std::uint32_t, std::uint32_t>> leafRanges;  ///< linear-index ranges, one per leaf
-    std::vector<std::uint32_t> blockStart;                    ///< block b's leaves: [blockStart[b], blockStart[b+1])
-    std::array<std::uint32_t, 9> colourStart{};               ///< colour c's blocks: [colourStart[c], colourStart[c+1])
+    std::vector<std::uint32_t> blockStart;                            ///< block b's leaves: [blockStart[b], blockStart[b+1])
+    std::array<std::uint32_t, 9> colourStart{};                       ///< colour c's blocks: [colourStart[c], colourStart[c+1])
 };
 
 /// reach: the largest |e_c| of any stencil offset (index space).

@@ -1,12 +1,12 @@
 #include "headless_display.h"
 
-#include <X11/Xlib.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <X11/Xlib.h>
 
 #include <cstdlib>
 #include <mutex>
@@ -67,8 +67,8 @@ std::string startXvfb() {
         dup2(devnull, STDOUT_FILENO);
         dup2(devnull, STDERR_FILENO);
         const std::string fd = std::to_string(fds[1]);
-        execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "1920x1200x24", "-nolisten", "tcp",
-               "-noreset", static_cast<char*>(nullptr));
+        execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "1920x1200x24", "-nolisten", "tcp", "-noreset",
+               static_cast<char*>(nullptr));
         _exit(127);
     }
     close(fds[1]);
@@ -79,8 +79,9 @@ std::string startXvfb() {
     while (poll(&p, 1, 20000) > 0 && read(fds[0], &c, 1) == 1 && c != '\n') number += c;
     close(fds[0]);
     if (number.empty())
-        throw OutputError("rendering needs an X display: DISPLAY is unset or does not answer, and Xvfb could not be "
-                          "started (install the 'xvfb' package; tools/setup does)");
+        throw OutputError(
+            "rendering needs an X display: DISPLAY is unset or does not answer, and Xvfb could not be "
+            "started (install the 'xvfb' package; tools/setup does)");
     return ":" + number;
 }
 

@@ -50,8 +50,8 @@ SurfaceMesh isoSurface(const openvdb::FloatGrid& grid, double level) {
     return m;
 }
 
-std::vector<std::pair<std::string, double>> meanSurfaceBytes(const openvdb::FloatGrid& mean, double iso, int components,
-                                                             bool polyData, double* vertexCount) {
+std::vector<std::pair<std::string, double>> meanSurfaceBytes(const openvdb::FloatGrid& mean, double iso, int components, bool polyData,
+                                                             double* vertexCount) {
     // === The crossing edges (one quad each) and the leaves that hold them, with the internal nodes above those
     //     leaves: the mesher's own trees (intersection, sign flags, point indices) allocate each such node
     using Tree = openvdb::FloatTree;

@@ -22,8 +22,8 @@ NanoVdbStreamWriter::NanoVdbStreamWriter(const std::string& file, std::string sh
 void NanoVdbStreamWriter::write(const openvdb::GridBase::ConstPtr& grid) {
     nanovdb::GridHandle<nanovdb::HostBuffer> handle;
     if (auto f = openvdb::GridBase::constGrid<openvdb::FloatGrid>(grid)) {
-        handle = halfFloat_ ? nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(*f)
-                            : nanovdb::openToNanoVDB(*f);
+        handle =
+            halfFloat_ ? nanovdb::openToNanoVDB<nanovdb::HostBuffer, openvdb::FloatTree, nanovdb::Fp16>(*f) : nanovdb::openToNanoVDB(*f);
     } else if (auto v = openvdb::GridBase::constGrid<openvdb::Vec3SGrid>(grid)) {
         handle = nanovdb::openToNanoVDB(*v);
     } else {

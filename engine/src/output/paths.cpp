@@ -9,11 +9,11 @@
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
 #include <vtkDoubleArray.h>
+#include <vtkIdList.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
-#include <vtkIdList.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 
@@ -63,7 +63,9 @@ void writePaths(const std::vector<GeodesicPath>& paths, const std::string& path,
             nlohmann::json points = nlohmann::json::array(), values = nlohmann::json::array();
             for (const Vec3d& x : p.points) points.push_back({x.x(), x.y(), x.z()});
             for (double u : p.values) values.push_back(std::isfinite(u) ? nlohmann::json(u) : nlohmann::json());
-            j["paths"].push_back({{"points", points}, {"geodesic", values}, {"length", p.length},
+            j["paths"].push_back({{"points", points},
+                                  {"geodesic", values},
+                                  {"length", p.length},
                                   {"distance", std::isfinite(p.distance) ? nlohmann::json(p.distance) : nlohmann::json()},
                                   {"reached_source", p.reachedSource}});
         }

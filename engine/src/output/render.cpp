@@ -17,8 +17,8 @@
 #include <vtkPolyDataMapper.h>
 #include <vtkPolyDataNormals.h>
 #include <vtkProperty.h>
-#include <vtkRenderWindow.h>
 #include <vtkRenderer.h>
+#include <vtkRenderWindow.h>
 #include <vtkScalarBarActor.h>
 #include <vtkSmartPointer.h>
 #include <vtkTextActor.h>
@@ -104,9 +104,9 @@ std::array<double, 2> colourRange(const std::vector<float>& values, const Render
     }
     if (!(lo <= hi)) {
         if (panel.logScale)
-            throw ParameterError("a log colour scale (RenderPanel::logScale) needs positive values, and '" + panel.array +
-                                     "' has none here",
-                                 {"RenderPanel::logScale"});
+            throw ParameterError(
+                "a log colour scale (RenderPanel::logScale) needs positive values, and '" + panel.array + "' has none here",
+                {"RenderPanel::logScale"});
         lo = 0, hi = 1;
     }
     if (panel.symmetric) lo = -absMax, hi = absMax;
@@ -158,8 +158,7 @@ const std::vector<float>& surfaceArray(const RenderPanel& panel) {
     const SurfaceMesh& m = *panel.surface;
     for (std::size_t k = 0; k < m.arrayNames.size(); ++k)
         if (m.arrayNames[k] == panel.array) {
-            if (m.components[k] != 1)
-                throw ParameterError("'" + panel.array + "' is a vector field: pictures colour scalar fields only");
+            if (m.components[k] != 1) throw ParameterError("'" + panel.array + "' is a vector field: pictures colour scalar fields only");
             return m.arrays[k];
         }
     throw ParameterError("the surface has no array '" + panel.array + "'");
@@ -244,10 +243,9 @@ void addSlice(vtkRenderer* r, const RenderPanel& panel) {
     const openvdb::Vec3d sliceIndex = grid.transform().worldToIndex(openvdb::Vec3d(panel.slice.value));
     const double k = sliceIndex[a];
     if (k < bb.min()[a] - 0.5 || k > bb.max()[a] + 0.5)
-        throw ParameterError("the slice " + std::string(1, "xyz"[a]) + "=" + numberText(panel.slice.value) +
-                             " misses the grid '" + grid.getName() + "' (active voxels between " +
-                             numberText(grid.transform().indexToWorld(bb.min())[a]) + " and " +
-                             numberText(grid.transform().indexToWorld(bb.max())[a]) + ")");
+        throw ParameterError("the slice " + std::string(1, "xyz"[a]) + "=" + numberText(panel.slice.value) + " misses the grid '" +
+                             grid.getName() + "' (active voxels between " + numberText(grid.transform().indexToWorld(bb.min())[a]) +
+                             " and " + numberText(grid.transform().indexToWorld(bb.max())[a]) + ")");
     const int nu = bb.dim()[iu], nv = bb.dim()[iv];
     const double h = grid.voxelSize()[0];
     auto image = Ptr<vtkImageData>::New();
@@ -330,8 +328,7 @@ SliceSpec sliceOf(const std::string& text) {
     const auto eq = text.find('=');
     const std::string axis = text.substr(0, eq);
     if (eq == std::string::npos || axis.size() != 1 || std::string("xyz").find(axis[0]) == std::string::npos)
-        throw ParameterError("slice plane (RenderPanel::slice): expected axis=value with axis x, y or z (e.g. z=0.1), got '" +
-                                 text + "'",
+        throw ParameterError("slice plane (RenderPanel::slice): expected axis=value with axis x, y or z (e.g. z=0.1), got '" + text + "'",
                              {"RenderPanel::slice"});
     s.axis = int(std::string("xyz").find(axis[0]));
     char* end = nullptr;
@@ -342,22 +339,18 @@ SliceSpec sliceOf(const std::string& text) {
     return s;
 }
 
-void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, const std::string& path,
-               const Progress& progress) {
+void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, const std::string& path, const Progress& progress) {
     if (panels.empty()) throw ParameterError("nothing to render");
     if (o.panelWidth < 64 || o.panelHeight < 64 || o.panelWidth > 8192 || o.panelHeight > 8192)
         throw ParameterError("picture panels must be 64 to 8192 pixels wide and high");
     for (const RenderPanel& p : panels) {
-        if (bool(p.surface) == bool(p.sliceGrid))
-            throw ParameterError("a picture panel shows either a surface or a slice");
+        if (bool(p.surface) == bool(p.sliceGrid)) throw ParameterError("a picture panel shows either a surface or a slice");
         if (p.surface && !p.sliceLines.empty()) throw ParameterError("lines over a slice need a slice panel");
     }
     // Refused before rendering: cheaper, and VTK's PNG writer leaks libpng's structures on its own error path.
-    const std::filesystem::path folder = std::filesystem::path(path).has_parent_path()
-                                             ? std::filesystem::path(path).parent_path() : ".";
+    const std::filesystem::path folder = std::filesystem::path(path).has_parent_path() ? std::filesystem::path(path).parent_path() : ".";
     if (!std::filesystem::is_directory(folder) || access(folder.c_str(), W_OK) != 0)
-        throw OutputError(path + ": cannot write the PNG (the folder " + folder.string() +
-                          " does not exist or is not writable)");
+        throw OutputError(path + ": cannot write the PNG (the folder " + folder.string() + " does not exist or is not writable)");
     const int columns = o.columns > 0 ? std::min<int>(o.columns, int(panels.size())) : int(panels.size());
     const int rows = (int(panels.size()) + columns - 1) / columns;
     const int caption = o.caption.empty() ? 0 : kCaptionHeight;
@@ -376,8 +369,8 @@ void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, c
         const int col = int(n) % columns, row = int(n) / columns;
         auto r = Ptr<vtkRenderer>::New();
         r->SetBackground(1, 1, 1);
-        r->SetViewport(double(col) / columns, captionFrac + (1 - captionFrac) * (rows - 1 - row) / rows,
-                       double(col + 1) / columns, captionFrac + (1 - captionFrac) * (rows - row) / rows);
+        r->SetViewport(double(col) / columns, captionFrac + (1 - captionFrac) * (rows - 1 - row) / rows, double(col + 1) / columns,
+                       captionFrac + (1 - captionFrac) * (rows - row) / rows);
         if (panel.surface) {
             addSurface(r, panel);
             placeCamera(r, o);
@@ -414,8 +407,7 @@ void renderPng(const std::vector<RenderPanel>& panels, const RenderOptions& o, c
     writer->SetInputConnection(grab->GetOutputPort());
     writer->Write();
     std::error_code ec;
-    if (writer->GetErrorCode() != 0 || std::filesystem::file_size(path, ec) == 0 || ec)
-        throw OutputError(path + ": cannot write the PNG");
+    if (writer->GetErrorCode() != 0 || std::filesystem::file_size(path, ec) == 0 || ec) throw OutputError(path + ": cannot write the PNG");
 }
 
 }  // namespace gpisvdb

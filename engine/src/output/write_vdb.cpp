@@ -9,11 +9,11 @@
 #include <fstream>
 #include <functional>
 #include <memory>
-#include <set>
 #include <openvdb/io/Archive.h>
 #include <openvdb/io/File.h>
 #include <openvdb/io/GridDescriptor.h>
 #include <openvdb/io/io.h>
+#include <set>
 
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/output/occupancy.h"
@@ -68,7 +68,8 @@ void checkFiniteGrid(const openvdb::GridBase::ConstPtr& g, bool half) {
     std::size_t bad = 0;
     double background = 0;
     if (auto f = openvdb::GridBase::constGrid<openvdb::FloatGrid>(g)) {
-        bad = countBad(*f, half, [](float v) { return std::abs(double(v)); }, first);
+        bad = countBad(
+            *f, half, [](float v) { return std::abs(double(v)); }, first);
         background = std::abs(double(f->background()));
     } else if (auto v = openvdb::GridBase::constGrid<openvdb::Vec3SGrid>(g)) {
         bad = countBad(*v, half, vecMagnitude, first);
@@ -78,12 +79,13 @@ void checkFiniteGrid(const openvdb::GridBase::ConstPtr& g, bool half) {
     }
     const bool badBackground = !std::isfinite(background) || (half && background > kHalfMax);
     if (!bad && !badBackground) return;
-    const std::string where = bad ? std::to_string(bad) + " active values (the first at voxel " + std::to_string(first.x()) +
-                                        "," + std::to_string(first.y()) + "," + std::to_string(first.z()) + ")"
+    const std::string where = bad ? std::to_string(bad) + " active values (the first at voxel " + std::to_string(first.x()) + "," +
+                                        std::to_string(first.y()) + "," + std::to_string(first.z()) + ")"
                                   : std::string("its background value");
     if (half)
-        throw ParameterError("grid '" + g->getName() + "': " + where + " are not finite or beyond the half-float range ±65504 "
-                             "(VdbWriteOptions::halfFloat): not written; store full floats",
+        throw ParameterError("grid '" + g->getName() + "': " + where +
+                                 " are not finite or beyond the half-float range ±65504 "
+                                 "(VdbWriteOptions::halfFloat): not written; store full floats",
                              {"VdbWriteOptions::halfFloat"});
     throw Error("grid '" + g->getName() + "': " + where + " are not finite (inf or NaN): not written");
 }
@@ -100,8 +102,9 @@ void checkOccupancyName(const VdbWriteOptions& options, const std::vector<NamedC
     for (const NamedChannel& c : extra) taken = taken || c.name == name;
     for (const NamedVectorChannel& c : vectors) taken = taken || c.name == name;
     if (taken)
-        throw ParameterError("the occupancy grid's name '" + name + "' (VdbWriteOptions::occupancyName) is "
-                             "another grid's: choose another",
+        throw ParameterError("the occupancy grid's name '" + name +
+                                 "' (VdbWriteOptions::occupancyName) is "
+                                 "another grid's: choose another",
                              {"VdbWriteOptions::occupancyName"});
 }
 
@@ -157,7 +160,8 @@ std::vector<GridMaker> channelGridMakers(const Band& band, const std::vector<Nam
     std::vector<GridMaker> makers;
     for (const NamedChannel& c : extra) {
         makers.push_back([&band, &c] {
-            auto grid = channel<openvdb::FloatGrid>(band, c.name, [&](std::size_t i) { return (*c.values)[i]; }, c.background);
+            auto grid = channel<openvdb::FloatGrid>(
+                band, c.name, [&](std::size_t i) { return (*c.values)[i]; }, c.background);
             auto acc = grid->getAccessor();
             for (std::size_t i = 0; i < band.size(); ++i)
                 if (!std::isfinite((*c.values)[i])) acc.setValueOff(band.coord[i], c.background);
@@ -167,9 +171,8 @@ std::vector<GridMaker> channelGridMakers(const Band& band, const std::vector<Nam
     for (const NamedVectorChannel& c : vectors) {
         makers.push_back([&band, &c] {
             const std::vector<float>& v = *c.values;
-            auto grid = channel<openvdb::Vec3SGrid>(band, c.name, [&](std::size_t i) {
-                return openvdb::Vec3s(v[3 * i], v[3 * i + 1], v[3 * i + 2]);
-            });
+            auto grid = channel<openvdb::Vec3SGrid>(band, c.name,
+                                                    [&](std::size_t i) { return openvdb::Vec3s(v[3 * i], v[3 * i + 1], v[3 * i + 2]); });
             grid->setVectorType(c.vectorType);
             auto acc = grid->getAccessor();  // like scalar channels: a non-finite vector is left inactive
             for (std::size_t i = 0; i < band.size(); ++i)
@@ -218,8 +221,7 @@ std::vector<GridMaker> sellingGridMakers(const Band& band) {
 class GridStreamWriter : private openvdb::io::Archive {
 public:
     /// Writes `file`; errors name `shownPath` (the file's final name when `file` is a temporary).
-    GridStreamWriter(const std::string& file, const std::string& shownPath, const openvdb::MetaMap& metadata,
-                     std::size_t gridCount)
+    GridStreamWriter(const std::string& file, const std::string& shownPath, const openvdb::MetaMap& metadata, std::size_t gridCount)
         : path_(shownPath) {
         file_.open(file, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
         if (file_.fail()) throw OutputError(shownPath + ": cannot open the VDB file for writing");
@@ -302,8 +304,8 @@ const std::vector<std::string>& bandGridNames() {
     return names;
 }
 
-openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>& extra,
-                              const std::vector<NamedVectorChannel>& vectors, const VdbWriteOptions& options) {
+openvdb::GridPtrVec bandGrids(const Band& band, const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors,
+                              const VdbWriteOptions& options) {
     openvdb::initialize();
     openvdb::GridPtrVec grids;
     for (const GridMaker& make : bandGridMakers(band, extra, vectors, options)) {
@@ -320,8 +322,7 @@ openvdb::GridPtrVec sellingGrids(const Band& band) {
     return grids;
 }
 
-void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata,
-              const VdbWriteOptions& options) {
+void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const openvdb::MetaMap& metadata, const VdbWriteOptions& options) {
     openvdb::initialize();
     if (options.nanoVdb) {  // the streaming writer checks and labels each grid itself
         std::vector<GridMaker> makers;
@@ -344,9 +345,8 @@ void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const o
     }
 }
 
-void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
-                  const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors,
-                  const VdbWriteOptions& options) {
+void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata, const std::vector<NamedChannel>& extra,
+                  const std::vector<NamedVectorChannel>& vectors, const VdbWriteOptions& options) {
     std::vector<GridMaker> makers = bandGridMakers(band, extra, vectors, options);
     if (options.sellingStencils) {
         std::vector<GridMaker> selling = sellingGridMakers(band);
@@ -367,8 +367,8 @@ SpilledBandGrids::SpilledBandGrids(const Band& band, std::string sidePath, const
 SpilledBandGrids::~SpilledBandGrids() { std::remove(path_.c_str()); }
 
 double spillableChannelBytes(const Band& band) {
-    return double(band.mean.capacity() * sizeof(float) + band.stddev.capacity() * sizeof(float) +
-                  band.T.capacity() * sizeof(band.T[0]) + band.normal.capacity() * sizeof(openvdb::Vec3f));
+    return double(band.mean.capacity() * sizeof(float) + band.stddev.capacity() * sizeof(float) + band.T.capacity() * sizeof(band.T[0]) +
+                  band.normal.capacity() * sizeof(openvdb::Vec3f));
 }
 
 void releaseSpilledChannels(Band& band) {
@@ -378,9 +378,8 @@ void releaseSpilledChannels(Band& band) {
     std::vector<openvdb::Vec3f>().swap(band.normal);
 }
 
-void writeBandVdb(const Band& band, const SpilledBandGrids& spilled, const std::string& path,
-                  const openvdb::MetaMap& metadata, const std::vector<NamedChannel>& extra,
-                  const std::vector<NamedVectorChannel>& vectors, const VdbWriteOptions& options) {
+void writeBandVdb(const Band& band, const SpilledBandGrids& spilled, const std::string& path, const openvdb::MetaMap& metadata,
+                  const std::vector<NamedChannel>& extra, const std::vector<NamedVectorChannel>& vectors, const VdbWriteOptions& options) {
     if (spilled.halfFloat() != options.halfFloat || spilled.occupancyName() != options.occupancyName)
         throw Error("the band's grids were spilled with another half-float setting or occupancy name than the file is written with");
     openvdb::initialize();

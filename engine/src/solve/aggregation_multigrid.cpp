@@ -3,16 +3,16 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
-#include <string>
 #include <Eigen/Dense>
+#include <string>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 #include <utility>
 #include <vector>
 
-#include "gpisvdb/band/stencil_neighbours.h"
 #include "deterministic_dot.h"
+#include "gpisvdb/band/stencil_neighbours.h"
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb {
@@ -21,7 +21,7 @@ namespace {
 
 constexpr std::size_t kGrain = 2048;
 constexpr std::size_t kMaxDenseUnknowns = 4096;  // the coarsest level's dense factor: 128 MB at most
-constexpr double kKCycleRatio = 0.25;  // the K-cycle's second step only while the first left more residual (Notay)
+constexpr double kKCycleRatio = 0.25;            // the K-cycle's second step only while the first left more residual (Notay)
 
 double dot(const float* a, const float* b, std::size_t n) { return detail::deterministicDot(a, b, n, kGrain); }
 
@@ -95,8 +95,7 @@ struct Aggregates {
 /// Groups nodes by coord >> 1 (2×2×2 blocks of their lattice). Aggregates are numbered in the order of their
 /// smallest coarse coordinate (x, then y, then z): a fixed order, whatever the thread count. `parent` gets each
 /// node's aggregate and `coarse` each aggregate's coordinate.
-Aggregates aggregate(const std::vector<openvdb::Coord>& coord, std::vector<std::int32_t>& parent,
-                     std::vector<openvdb::Coord>& coarse) {
+Aggregates aggregate(const std::vector<openvdb::Coord>& coord, std::vector<std::int32_t>& parent, std::vector<openvdb::Coord>& coarse) {
     const std::size_t n = coord.size();
     std::vector<std::int32_t> order(n);
     for (std::size_t i = 0; i < n; ++i) order[i] = std::int32_t(i);
@@ -132,15 +131,15 @@ struct CoarseLevel {
     Aggregates fromFiner;  // this level's nodes as aggregates of the finer level's nodes
     EdgeRows edges;
     std::vector<float> diag, invDiag;
-    std::vector<double> boundary;       // set-up only: the weights of edges that leave the band
-    std::vector<openvdb::Coord> coord;  // set-up only: the node's block, in units of this level's spacing
-    mutable std::vector<float> r, x, t; // the cycle's right-hand side, iterate and residual
+    std::vector<double> boundary;                   // set-up only: the weights of edges that leave the band
+    std::vector<openvdb::Coord> coord;              // set-up only: the node's block, in units of this level's spacing
+    mutable std::vector<float> r, x, t;             // the cycle's right-hand side, iterate and residual
     mutable std::vector<float> v1, w1, v2, w2, rt;  // the K-cycle's two flexible-CG steps (kCycle)
     std::size_t size() const { return diag.size(); }
     std::size_t bytes() const {
         return fromFiner.bytes() + edges.bytes() +
-               (diag.capacity() + invDiag.capacity() + r.capacity() + x.capacity() + t.capacity() + v1.capacity() +
-                w1.capacity() + v2.capacity() + w2.capacity() + rt.capacity()) *
+               (diag.capacity() + invDiag.capacity() + r.capacity() + x.capacity() + t.capacity() + v1.capacity() + w1.capacity() +
+                v2.capacity() + w2.capacity() + rt.capacity()) *
                    sizeof(float);
     }
     /// out = A u, each row summed in double in a fixed order.
@@ -158,9 +157,9 @@ struct AggregationMultigrid::Impl {
     const LaplacianOperator& L;
     AggregationOptions options;
     std::size_t n = 0;
-    std::vector<float> invDiag;          // the finest level's
-    mutable std::vector<float> t;        // the finest level's residual
-    std::vector<CoarseLevel> levels;     // 1, 2, …
+    std::vector<float> invDiag;       // the finest level's
+    mutable std::vector<float> t;     // the finest level's residual
+    std::vector<CoarseLevel> levels;  // 1, 2, …
     Eigen::LLT<Eigen::MatrixXd> coarsest;
     std::size_t fineEntries = 0;
 
@@ -177,7 +176,8 @@ struct AggregationMultigrid::Impl {
                 levels.push_back(coarsen(levels.back()));
             if (levels.back().size() > kMaxDenseUnknowns)
                 throw Error("aggregation multigrid: " + std::to_string(levels.back().size()) + " nodes left after " +
-                            std::to_string(levels.size()) + " levels (AggregationOptions::maxLevels), too many for the "
+                            std::to_string(levels.size()) +
+                            " levels (AggregationOptions::maxLevels), too many for the "
                             "dense coarsest solve: use --preconditioner multigrid or jacobi");
             for (std::size_t c = 0; c < levels.size(); ++c) {
                 CoarseLevel& level = levels[c];
@@ -469,14 +469,15 @@ std::size_t AggregationMultigrid::coarseUnknowns(int level) const {
     return level >= 1 && level <= int(impl_->levels.size()) ? impl_->levels[std::size_t(level - 1)].size() : 0;
 }
 
-void AggregationMultigrid::applyCoarse(int level, const float* u, float* out) const {
-    if (level < 1 || level > int(impl_->levels.size())) throw ParameterError("aggregation multigrid: no coarse level " + std::to_string(level));
-    impl_->levels[std::size_t(level - 1)].apply(u, out);
+static const CoarseLevel& coarseLevel(const std::vector<CoarseLevel>& levels, int level) {
+    if (level < 1 || level > int(levels.size())) throw ParameterError("aggregation multigrid: no coarse level " + std::to_string(level));
+    return levels[std::size_t(level - 1)];
 }
 
+void AggregationMultigrid::applyCoarse(int level, const float* u, float* out) const { coarseLevel(impl_->levels, level).apply(u, out); }
+
 std::vector<std::int32_t> AggregationMultigrid::aggregateOf(int level) const {
-    if (level < 1 || level > int(impl_->levels.size())) throw ParameterError("aggregation multigrid: no coarse level " + std::to_string(level));
-    const Aggregates& agg = impl_->levels[std::size_t(level - 1)].fromFiner;
+    const Aggregates& agg = coarseLevel(impl_->levels, level).fromFiner;
     std::vector<std::int32_t> parent(agg.member.size());
     for (std::size_t K = 0; K < agg.count(); ++K)
         for (std::uint32_t m = agg.start[K]; m != agg.start[K + 1]; ++m) parent[std::size_t(agg.member[m])] = std::int32_t(K);

@@ -7,16 +7,16 @@
 #endif
 // hypre's internal headers: the hierarchy's levels and the vectors' storage, which the public API does not expose.
 #include <_hypre_parcsr_ls.h>
-#include <HYPRE.h>
-#include <HYPRE_parcsr_ls.h>
 #include <algorithm>
 #include <cstdlib>
+#include <HYPRE.h>
+#include <HYPRE_parcsr_ls.h>
 #include <mutex>
 #include <string>
 #include <vector>
 
-#include "gpisvdb/core/errors.h"
 #include "../core/heap_reuse.h"
+#include "gpisvdb/core/errors.h"
 
 namespace gpisvdb {
 
@@ -84,8 +84,9 @@ void ensureMpi() {
             __lsan::ScopedDisabler notOurs;
 #endif
             if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS)
-                throw Error("the multigrid preconditioner could not initialise MPI (hypre needs it); use the Jacobi "
-                            "preconditioner instead");
+                throw Error(
+                    "the multigrid preconditioner could not initialise MPI (hypre needs it); use the Jacobi "
+                    "preconditioner instead");
             std::atexit(finalizeMpi);
         }
         HYPRE_Init();
@@ -100,9 +101,7 @@ void check(HYPRE_Int code, const char* what) {
     throw Error(std::string("hypre failed in ") + what + ": " + message);
 }
 
-double* localData(HYPRE_ParVector v) {
-    return hypre_VectorData(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(v)));
-}
+double* localData(HYPRE_ParVector v) { return hypre_VectorData(hypre_ParVectorLocalVector(reinterpret_cast<hypre_ParVector*>(v))); }
 
 std::size_t csrBytes(hypre_ParCSRMatrix* M) {
     if (!M) return 0;
@@ -198,8 +197,7 @@ void BoomerAmg::setUp(const Matrix& M, Matrix* release, const BoomerAmgOptions& 
         cols.assign(M.innerIndexPtr() + outer[begin], M.innerIndexPtr() + outer[end]);
         values.assign(M.valuePtr() + outer[begin], M.valuePtr() + outer[end]);
         HYPRE_Int nrows = HYPRE_Int(end - begin);
-        check(HYPRE_IJMatrixSetValues(m.ijA, nrows, counts.data(), rows.data(), cols.data(), values.data()),
-              "IJMatrixSetValues");
+        check(HYPRE_IJMatrixSetValues(m.ijA, nrows, counts.data(), rows.data(), cols.data(), values.data()), "IJMatrixSetValues");
     }
     check(HYPRE_IJMatrixAssemble(m.ijA), "IJMatrixAssemble");
     check(HYPRE_IJMatrixGetObject(m.ijA, reinterpret_cast<void**>(&m.A)), "IJMatrixGetObject");
@@ -223,16 +221,16 @@ void BoomerAmg::setUp(const Matrix& M, Matrix* release, const BoomerAmgOptions& 
     HYPRE_BoomerAMGSetPrintLevel(m.amg, 0);
     HYPRE_BoomerAMGSetMaxIter(m.amg, 1);
     HYPRE_BoomerAMGSetTol(m.amg, 0.0);
-    HYPRE_BoomerAMGSetCoarsenType(m.amg, 10);     // HMIS
-    HYPRE_BoomerAMGSetInterpType(m.amg, 6);       // extended+i
+    HYPRE_BoomerAMGSetCoarsenType(m.amg, 10);  // HMIS
+    HYPRE_BoomerAMGSetInterpType(m.amg, 6);    // extended+i
     HYPRE_BoomerAMGSetPMaxElmts(m.amg, options.maxInterpolationEntries);
     HYPRE_BoomerAMGSetStrongThreshold(m.amg, options.strongThreshold);
     HYPRE_BoomerAMGSetAggNumLevels(m.amg, options.aggressiveLevels);
-    HYPRE_BoomerAMGSetCycleRelaxType(m.amg, 13, 1); // ℓ1-Gauss–Seidel forward on the way down,
-    HYPRE_BoomerAMGSetCycleRelaxType(m.amg, 14, 2); // backward on the way up: a symmetric V-cycle
-    HYPRE_BoomerAMGSetCycleRelaxType(m.amg, 9, 3); // coarsest level: Gaussian elimination
+    HYPRE_BoomerAMGSetCycleRelaxType(m.amg, 13, 1);  // ℓ1-Gauss–Seidel forward on the way down,
+    HYPRE_BoomerAMGSetCycleRelaxType(m.amg, 14, 2);  // backward on the way up: a symmetric V-cycle
+    HYPRE_BoomerAMGSetCycleRelaxType(m.amg, 9, 3);   // coarsest level: Gaussian elimination
     HYPRE_BoomerAMGSetNumSweeps(m.amg, 1);
-    HYPRE_BoomerAMGSetRelaxOrder(m.amg, 0);        // lexicographic: the same sweep for any thread count
+    HYPRE_BoomerAMGSetRelaxOrder(m.amg, 0);  // lexicographic: the same sweep for any thread count
     check(HYPRE_BoomerAMGSetup(m.amg, m.A, m.b, m.x), "BoomerAMGSetup");
 }
 

@@ -1,10 +1,10 @@
 #include "gpisvdb/solve/eigen_solver.h"
 
-#include <Eigen/CholmodSupport>
-#include <Spectra/SymGEigsShiftSolver.h>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <Eigen/CholmodSupport>
+#include <Spectra/SymGEigsShiftSolver.h>
 
 #include "gpisvdb/core/errors.h"
 
@@ -95,21 +95,21 @@ double eigenBytes(double factorNonzeros, double n, double subspace, double count
     return 12.0 * factorNonzeros + 8.0 * n * (2.0 * subspace + count);
 }
 
-EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass, const EigenOptions& options,
-                             const Progress& progress) {
+EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass, const EigenOptions& options, const Progress& progress) {
     const Eigen::Index n = L.rows();
     // === Parameters
     if (L.cols() != n || mass.size() != n) throw ParameterError("eigen solver: L and M must be N × N and N");
     if (options.count < 1 || options.count >= n)
         throw ParameterError("the number of eigenpairs k (EigenOptions::count) = " + std::to_string(options.count) +
-                                 " must be between 1 and " + std::to_string(n - 1) + " (one less than the band's " +
-                                 std::to_string(n) + " voxels)",
+                                 " must be between 1 and " + std::to_string(n - 1) + " (one less than the band's " + std::to_string(n) +
+                                 " voxels)",
                              {"EigenOptions::count"});
     if (!(mass.array() > 0).all() || !mass.allFinite()) throw ParameterError("eigen solver: the mass M must be positive");
     if (!(options.tolerance > 0) || options.maxRestarts < 1)
-        throw ParameterError("eigen solver: the tolerance (EigenOptions::tolerance) must be > 0 and the restart cap "
-                             "(EigenOptions::maxRestarts) ≥ 1",
-                             {"EigenOptions::tolerance", "EigenOptions::maxRestarts"});
+        throw ParameterError(
+            "eigen solver: the tolerance (EigenOptions::tolerance) must be > 0 and the restart cap "
+            "(EigenOptions::maxRestarts) ≥ 1",
+            {"EigenOptions::tolerance", "EigenOptions::maxRestarts"});
     const Eigen::Index k = options.count;
     Eigen::Index ncv = options.subspace > 0 ? options.subspace : std::max<Eigen::Index>(2 * k, k + 20);
     ncv = std::min(ncv, n);
@@ -134,9 +134,11 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     };
     if (options.method == EigenMethod::Lobpcg) {
         if (options.maxBytes > 0 && lobpcgNeeds > options.maxBytes)
-            throw MemoryLimitError(std::to_string(k) + " eigenpairs by LOBPCG on a band of " + std::to_string(n) +
-                                       " voxels need about " + numberText(lobpcgNeeds / 1e9) + " GB (its blocks and the "
-                                       "multigrid), more than the " + numberText(options.maxBytes / 1e9) +
+            throw MemoryLimitError(std::to_string(k) + " eigenpairs by LOBPCG on a band of " + std::to_string(n) + " voxels need about " +
+                                       numberText(lobpcgNeeds / 1e9) +
+                                       " GB (its blocks and the "
+                                       "multigrid), more than the " +
+                                       numberText(options.maxBytes / 1e9) +
                                        " GB allowed (EigenOptions::maxBytes): lower the eigenpair count "
                                        "(EigenOptions::count), use a coarser voxel size (BandOptions::voxelSize), or "
                                        "raise the memory limit",
@@ -153,20 +155,19 @@ EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass
     factor.analyzePattern(L);
     const double needed = eigenBytes(factor.cholmod().lnz, double(n), double(ncv), double(k));
     result.estimatedBytes = needed;
-    if (options.maxBytes > 0 && needed > options.maxBytes && options.method == EigenMethod::Automatic &&
-        lobpcgNeeds <= options.maxBytes)
+    if (options.maxBytes > 0 && needed > options.maxBytes && options.method == EigenMethod::Automatic && lobpcgNeeds <= options.maxBytes)
         return runLobpcg();  // the factor would not fit: no factor at all
     if (options.maxBytes > 0 && needed > options.maxBytes)
         throw MemoryLimitError(std::to_string(k) + " eigenpairs of a band of " + std::to_string(n) + " voxels need about " +
-                             numberText(needed / 1e9) + " GB (Cholesky factor of " + numberText(factor.cholmod().lnz) +
-                             " entries, Lanczos basis and vectors), more than the " + numberText(options.maxBytes / 1e9) +
-                             " GB allowed (EigenOptions::maxBytes)" +
-                             (options.method == EigenMethod::Automatic
-                                  ? std::string(", and LOBPCG without a factor about ") + numberText(lobpcgNeeds / 1e9) + " GB"
-                                  : std::string()) +
-                             ": lower the eigenpair count (EigenOptions::count), use a coarser "
-                             "voxel size (BandOptions::voxelSize), or raise the memory limit",
-                             {"EigenOptions::maxBytes", "EigenOptions::count", "BandOptions::voxelSize"});
+                                   numberText(needed / 1e9) + " GB (Cholesky factor of " + numberText(factor.cholmod().lnz) +
+                                   " entries, Lanczos basis and vectors), more than the " + numberText(options.maxBytes / 1e9) +
+                                   " GB allowed (EigenOptions::maxBytes)" +
+                                   (options.method == EigenMethod::Automatic
+                                        ? std::string(", and LOBPCG without a factor about ") + numberText(lobpcgNeeds / 1e9) + " GB"
+                                        : std::string()) +
+                                   ": lower the eigenpair count (EigenOptions::count), use a coarser "
+                                   "voxel size (BandOptions::voxelSize), or raise the memory limit",
+                               {"EigenOptions::maxBytes", "EigenOptions::count", "BandOptions::voxelSize"});
     progress.checkInterrupt();
     factor.factorize(L);  // CHOLMOD does not poll: the CLI's watchdog ends the process if a signal comes now
     progress.checkInterrupt();

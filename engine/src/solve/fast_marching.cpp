@@ -254,9 +254,8 @@ double FastMarching::bytesPerVoxel() const {
     return double(reverseStart_.capacity() * sizeof(std::uint32_t) + reverse_.capacity() * sizeof(std::uint32_t)) / n;
 }
 
-FastMarchingResult fastMarching(const Band& band, const std::vector<std::size_t>& sources,
-                                const std::vector<std::size_t>& targets, const FastMarchingOptions& options,
-                                const Progress& progress) {
+FastMarchingResult fastMarching(const Band& band, const std::vector<std::size_t>& sources, const std::vector<std::size_t>& targets,
+                                const FastMarchingOptions& options, const Progress& progress) {
     return FastMarching(band).run(sources, targets, options, progress);
 }
 
@@ -358,7 +357,7 @@ FastMarchingResult FastMarching::run(const std::vector<std::size_t>& sources, co
 }
 
 FastMarchingResult FastMarching::runReference(const std::vector<std::size_t>& sources, const std::vector<std::size_t>& targets,
-                                     const FastMarchingOptions& options, const Progress& progress) const {
+                                              const FastMarchingOptions& options, const Progress& progress) const {
     const Band& band = band_;
     const std::size_t n = band.size();
     checkPoints(n, sources, targets);

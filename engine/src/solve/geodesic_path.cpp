@@ -38,10 +38,10 @@ public:
     }
 
     struct Sample {
-        bool valid = false;         ///< some corner of the cell holds a finite U
-        double u = kInf;            ///< trilinear U over the valid corners (weights renormalised)
-        Vec3d v = Vec3d::Zero();    ///< trilinear V likewise
-        std::int32_t seed = -1;     ///< a corner with U = 0 (lowest index), or −1
+        bool valid = false;       ///< some corner of the cell holds a finite U
+        double u = kInf;          ///< trilinear U over the valid corners (weights renormalised)
+        Vec3d v = Vec3d::Zero();  ///< trilinear V likewise
+        std::int32_t seed = -1;   ///< a corner with U = 0 (lowest index), or −1
     };
 
     Sample sample(const Vec3d& q) {

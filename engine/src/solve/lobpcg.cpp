@@ -1,8 +1,8 @@
 #include "gpisvdb/solve/lobpcg.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 #include <random>
 #include <string>
 #include <tbb/blocked_range.h>
@@ -110,9 +110,10 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
             const Progress& progress) {
     const Index n = L.rows();
     if (!(options.tolerance > 0) || options.maxIterations < 1 || options.guard < 0)
-        throw ParameterError("LOBPCG: the tolerance (LobpcgOptions::tolerance) must be > 0, the iteration cap "
-                             "(LobpcgOptions::maxIterations) ≥ 1 and the guard vectors (LobpcgOptions::guard) ≥ 0",
-                             {"LobpcgOptions::tolerance", "LobpcgOptions::maxIterations", "LobpcgOptions::guard"});
+        throw ParameterError(
+            "LOBPCG: the tolerance (LobpcgOptions::tolerance) must be > 0, the iteration cap "
+            "(LobpcgOptions::maxIterations) ≥ 1 and the guard vectors (LobpcgOptions::guard) ≥ 0",
+            {"LobpcgOptions::tolerance", "LobpcgOptions::maxIterations", "LobpcgOptions::guard"});
     const Index k = count;
     const Index m = lobpcgBlockSize(count, options, double(n));
     if (3 * m > n) throw ParameterError("LOBPCG needs a band of more than 3 (k + guard) voxels: use the Lanczos path");
@@ -167,7 +168,8 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
             if (d(i) > kRankTolerance * largest) keep.push_back(i);
         if (Index(keep.size()) < m) throw Error("LOBPCG: the search space lost rank; use the Lanczos path (--eigen-method lanczos)");
         MatrixXd Q(GB.rows(), Index(keep.size()));
-        for (Index c = 0; c < Index(keep.size()); ++c) Q.col(c) = b.eigenvectors().col(keep[std::size_t(c)]) / std::sqrt(d(keep[std::size_t(c)]));
+        for (Index c = 0; c < Index(keep.size()); ++c)
+            Q.col(c) = b.eigenvectors().col(keep[std::size_t(c)]) / std::sqrt(d(keep[std::size_t(c)]));
         MatrixXd H = Q.transpose() * GA * Q;
         H = 0.5 * (H + H.transpose()).eval();
         Eigen::SelfAdjointEigenSolver<MatrixXd> h(H);
@@ -187,7 +189,7 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
     }
 
     std::vector<double> z(static_cast<std::size_t>(n));  // one V-cycle's output
-    Index previous = 0;  // columns of P in use
+    Index previous = 0;                                  // columns of P in use
     std::vector<Index> active;
     VectorXd residual(m);
     for (int iteration = 1;; ++iteration) {
@@ -195,8 +197,7 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
         // === Residuals R = L X − M X Λ (into W), their norms relative to |λ| ‖M x‖
         const MatrixXd sums = residualSweep();
         active.clear();
-        for (Index c = 0; c < m; ++c)
-            residual(c) = std::sqrt(sums(c, 2 * m)) / (std::abs(lambda(c)) * std::sqrt(sums(c, 2 * m + 1)));
+        for (Index c = 0; c < m; ++c) residual(c) = std::sqrt(sums(c, 2 * m)) / (std::abs(lambda(c)) * std::sqrt(sums(c, 2 * m + 1)));
         Index converged = 0;
         while (converged < k && residual(converged) <= options.tolerance) ++converged;
         result.iterations = iteration - 1;
@@ -204,8 +205,8 @@ void lobpcg(const SparseMatrixD& L, const VectorXd& mass, int count, const Lobpc
         if (converged == k) break;
         if (iteration > options.maxIterations)
             throw Error("LOBPCG did not converge on the " + std::to_string(k) + " lowest pairs within " +
-                        std::to_string(options.maxIterations) + " iterations (largest residual " +
-                        numberText(residual.head(k).maxCoeff()) + "): raise LobpcgOptions::maxIterations or use the "
+                        std::to_string(options.maxIterations) + " iterations (largest residual " + numberText(residual.head(k).maxCoeff()) +
+                        "): raise LobpcgOptions::maxIterations or use the "
                         "Lanczos path");
         // Soft locking: pairs converged in order keep their place in X but get no new direction.
         for (Index c = 0; c < m; ++c)

@@ -1,7 +1,7 @@
 #include "gpisvdb/solve/pcg.h"
 
-#include <Eigen/IterativeLinearSolvers>
 #include <cmath>
+#include <Eigen/IterativeLinearSolvers>
 #include <limits>
 #include <string>
 #include <tbb/blocked_range.h>
@@ -47,16 +47,16 @@ struct PcgSolver::Impl {
     PcgOptions options;
     std::size_t n;
     mutable std::vector<float> r, z, p, Ap;
-    std::vector<float> invDiag;           // Jacobi
-    std::unique_ptr<IncompleteFactor> ic; // IC
-    std::vector<int> perm;                // IC: (P r)_k = r[perm[k]]
-    std::vector<float> scale;             // IC: the factor's diagonal scaling S
-    std::unique_ptr<BoomerAmg> amg;       // Multigrid
+    std::vector<float> invDiag;                         // Jacobi
+    std::unique_ptr<IncompleteFactor> ic;               // IC
+    std::vector<int> perm;                              // IC: (P r)_k = r[perm[k]]
+    std::vector<float> scale;                           // IC: the factor's diagonal scaling S
+    std::unique_ptr<BoomerAmg> amg;                     // Multigrid
     std::unique_ptr<AggregationMultigrid> aggregation;  // Aggregation
     // Refinement, allocated at the first refined solve and kept for the next ones
-    mutable std::vector<double> residual;  // b − A x in double
+    mutable std::vector<double> residual;       // b − A x in double
     mutable std::vector<float> innerB, innerX;  // the correction's right-hand side r/‖r‖ and its solution
-    mutable std::vector<double> wide;      // float API: x in double; double API: x rounded to float, widened
+    mutable std::vector<double> wide;           // float API: x in double; double API: x rounded to float, widened
 
     Impl(const SymmetricOperator& op, const PcgOptions& o) : A(op), options(o), n(op.size()) {
         options.preconditioner = resolvePreconditioner(o.preconditioner, op);
@@ -116,8 +116,8 @@ struct PcgSolver::Impl {
     /// The float PCG of the header on A x = b from x (‖b‖ = bNorm > 0) to `tolerance`, at most `maxIterations`.
     /// Progress reports log(scale · residual) / log(target): the refinement's inner solves run on r/‖r‖, and
     /// `scale` = ‖r‖/‖b‖ maps their residual to the whole solve's.
-    PcgResult pcg(const float* b, float* x, double bNorm, double tolerance, int maxIterations, double scaleToCaller,
-                  double target, const Progress& progress) const {
+    PcgResult pcg(const float* b, float* x, double bNorm, double tolerance, int maxIterations, double scaleToCaller, double target,
+                  const Progress& progress) const {
         PcgResult res;
         const bool flexible = aggregation && !aggregation->linear();
         // === r = b − A x, z = P⁻¹ r, p = z (also a restart, from the true residual)
@@ -164,9 +164,7 @@ struct PcgSolver::Impl {
             // restart from the true one while it misses the tolerance and the restarts still gain.
             restart();
             const bool met = res.relativeResidual <= tolerance;
-            if (met || res.iterations >= maxIterations || ++restarts > kMaxRestarts ||
-                res.relativeResidual > 0.5 * lastTrue)
-                break;
+            if (met || res.iterations >= maxIterations || ++restarts > kMaxRestarts || res.relativeResidual > 0.5 * lastTrue) break;
             lastTrue = res.relativeResidual;
         }
         res.converged = res.relativeResidual <= tolerance;
@@ -194,8 +192,8 @@ struct PcgSolver::Impl {
         const double tolerance = options.tolerance;
         double rNorm = trueResidual(b, x);
         res.relativeResidual = rNorm / bNorm;
-        while (res.relativeResidual > tolerance && res.iterations < options.maxIterations &&
-               res.refinements < kMaxRefinements && rNorm > 0) {
+        while (res.relativeResidual > tolerance && res.iterations < options.maxIterations && res.refinements < kMaxRefinements &&
+               rNorm > 0) {
             // The inner solve need not go further than the step that meets the tolerance (with a margin of 2
             // for the float operator's rounding, which the double residual does not share).
             const double innerTolerance = std::max(kInnerTolerance, 0.5 * tolerance / res.relativeResidual);
@@ -204,8 +202,8 @@ struct PcgSolver::Impl {
                 innerX[i] = 0.0f;
             });
             const double innerNorm = std::sqrt(dot(innerB.data(), innerB.data(), n));
-            const PcgResult inner = pcg(innerB.data(), innerX.data(), innerNorm, innerTolerance,
-                                        options.maxIterations - res.iterations, res.relativeResidual, tolerance, progress);
+            const PcgResult inner = pcg(innerB.data(), innerX.data(), innerNorm, innerTolerance, options.maxIterations - res.iterations,
+                                        res.relativeResidual, tolerance, progress);
             res.iterations += inner.iterations;
             res.innerIterations += inner.iterations;
             res.restarts += inner.restarts;
@@ -257,10 +255,11 @@ const char* preconditionerName(Preconditioner p) {
 }
 
 const std::vector<std::pair<std::string, Preconditioner>>& preconditionerChoices() {
-    static const std::vector<std::pair<std::string, Preconditioner>> kChoices = {
-        {"auto", Preconditioner::Automatic},   {"aggregation", Preconditioner::Aggregation},
-        {"multigrid", Preconditioner::Multigrid}, {"jacobi", Preconditioner::Jacobi},
-        {"ic", Preconditioner::IncompleteCholesky}};
+    static const std::vector<std::pair<std::string, Preconditioner>> kChoices = {{"auto", Preconditioner::Automatic},
+                                                                                 {"aggregation", Preconditioner::Aggregation},
+                                                                                 {"multigrid", Preconditioner::Multigrid},
+                                                                                 {"jacobi", Preconditioner::Jacobi},
+                                                                                 {"ic", Preconditioner::IncompleteCholesky}};
     return kChoices;
 }
 
@@ -285,7 +284,8 @@ void checkPcgOptions(const PcgOptions& o) {
         throw ParameterError("the PCG tolerance (PcgOptions::tolerance) must be >= " + numberText(kMinPcgTolerance) +
                                  ", near what double precision resolves of b - A x",
                              {"PcgOptions::tolerance"});
-    if (o.maxIterations < 1) throw ParameterError("the PCG iteration cap (PcgOptions::maxIterations) must be >= 1", {"PcgOptions::maxIterations"});
+    if (o.maxIterations < 1)
+        throw ParameterError("the PCG iteration cap (PcgOptions::maxIterations) must be >= 1", {"PcgOptions::maxIterations"});
 }
 
 PcgSolver::PcgSolver(const SymmetricOperator& A, const PcgOptions& o) {
@@ -297,8 +297,9 @@ PcgSolver::~PcgSolver() = default;
 
 std::size_t PcgSolver::memoryBytes() const {
     const Impl& m = *impl_;
-    std::size_t bytes = (m.r.capacity() + m.z.capacity() + m.p.capacity() + m.Ap.capacity() + m.invDiag.capacity() +
-                         m.scale.capacity() + m.innerB.capacity() + m.innerX.capacity()) * sizeof(float) +
+    std::size_t bytes = (m.r.capacity() + m.z.capacity() + m.p.capacity() + m.Ap.capacity() + m.invDiag.capacity() + m.scale.capacity() +
+                         m.innerB.capacity() + m.innerX.capacity()) *
+                            sizeof(float) +
                         (m.residual.capacity() + m.wide.capacity()) * sizeof(double) + m.perm.capacity() * sizeof(int);
     if (m.ic) bytes += std::size_t(m.ic->matrixL().nonZeros()) * (sizeof(float) + sizeof(int)) + (m.n + 1) * sizeof(int);
     if (m.amg) bytes += m.amg->memoryBytes();
@@ -369,8 +370,8 @@ PcgResult PcgSolver::solve(const std::vector<double>& b, std::vector<double>& x,
             m.innerX[i] = float(x[i]);
         });
         const double fNorm = std::sqrt(dot(m.innerB.data(), m.innerB.data(), n));
-        res = m.pcg(m.innerB.data(), m.innerX.data(), fNorm, m.options.tolerance, m.options.maxIterations, 1.0,
-                    m.options.tolerance, progress);
+        res = m.pcg(m.innerB.data(), m.innerX.data(), fNorm, m.options.tolerance, m.options.maxIterations, 1.0, m.options.tolerance,
+                    progress);
         forEach(n, [&](std::size_t i) { x[i] = double(m.innerX[i]); });
     } else {
         m.refine(b.data(), bNorm, x.data(), res, progress);
@@ -392,8 +393,8 @@ PcgResult solvePcg(const SymmetricOperator& A, const std::vector<float>& b, std:
     return PcgSolver(A, o).solve(b, x, progress);
 }
 
-PcgResult solvePcg(const SymmetricOperator& A, const std::vector<double>& b, std::vector<double>& x,
-                   const PcgOptions& o, const Progress& progress) {
+PcgResult solvePcg(const SymmetricOperator& A, const std::vector<double>& b, std::vector<double>& x, const PcgOptions& o,
+                   const Progress& progress) {
     return PcgSolver(A, o).solve(b, x, progress);
 }
 

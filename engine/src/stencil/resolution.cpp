@@ -1,8 +1,8 @@
 #include "gpisvdb/stencil/resolution.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 #include <tbb/parallel_for.h>
 
 #include "gpisvdb/core/errors.h"
@@ -22,8 +22,7 @@ Mat3d regularise(const Mat3d& T, double maxAnisotropy, bool& changed) {
     return R;
 }
 
-Resolution chooseResolution(const GpisModel& model, const Samples& samples, const ResolutionOptions& options,
-                            const Progress& progress) {
+Resolution chooseResolution(const GpisModel& model, const Samples& samples, const ResolutionOptions& options, const Progress& progress) {
     if (!(options.resolutionScale > 0) || !std::isfinite(options.resolutionScale))
         throw ParameterError("the resolution scale (ResolutionOptions::resolutionScale) must be finite and > 0",
                              {"ResolutionOptions::resolutionScale"});

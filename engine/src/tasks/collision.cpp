@@ -17,8 +17,8 @@ constexpr double kDrawBytes = 256e6;  // the draws' noise and tree held at once:
 
 /// Each triangle's divisions m (its longest edge over the step, rounded up) and the points they make in all:
 /// the vertices and (m + 1)(m + 2)/2 lattice points per triangle, counted before anything is allocated.
-std::vector<int> latticeDivisions(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                                  double step, double& total) {
+std::vector<int> latticeDivisions(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles, double step,
+                                  double& total) {
     if (!(step > 0) || !std::isfinite(step))
         throw ParameterError("the spacing of the points on the mesh (CollisionOptions::step) must be finite and > 0",
                              {"CollisionOptions::step"});
@@ -34,23 +34,23 @@ std::vector<int> latticeDivisions(const std::vector<Vec3d>& vertices, const std:
         if (!(m <= kMaxPoints)) total = HUGE_VAL;
         else divisions[t] = int(m), total += 0.5 * (m + 1) * (m + 2);
         if (total > kMaxPoints)
-            throw ParameterError("the mesh sampled at spacing " + numberText(step) + " needs more than 1e8 points: use a "
-                                 "larger spacing (CollisionOptions::step)", {"CollisionOptions::step"});
+            throw ParameterError("the mesh sampled at spacing " + numberText(step) +
+                                     " needs more than 1e8 points: use a "
+                                     "larger spacing (CollisionOptions::step)",
+                                 {"CollisionOptions::step"});
     }
     return divisions;
 }
 
 }  // namespace
 
-std::size_t meshSamplePointCount(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                                 double step) {
+std::size_t meshSamplePointCount(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles, double step) {
     double total = 0;
     latticeDivisions(vertices, triangles, step, total);
     return std::size_t(total);
 }
 
-std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                                    double step) {
+std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles, double step) {
     double total = 0;
     const std::vector<int> divisions = latticeDivisions(vertices, triangles, step, total);
     std::vector<Vec3d> points(vertices);
@@ -68,12 +68,13 @@ std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const st
     return points;
 }
 
-CollisionResult collisionProbability(const GpisModel& model, const Samples& samples, double s,
-                                     const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                                     const CollisionOptions& options, const Progress& progress) {
+CollisionResult collisionProbability(const GpisModel& model, const Samples& samples, double s, const std::vector<Vec3d>& vertices,
+                                     const std::vector<std::array<int, 3>>& triangles, const CollisionOptions& options,
+                                     const Progress& progress) {
     if (options.draws < 1 || options.draws > 10000)
         throw ParameterError("the number of draws (CollisionOptions::draws) must be between 1 and 10000", {"CollisionOptions::draws"});
-    if (!std::isfinite(options.iso)) throw ParameterError("the iso-value (CollisionOptions::iso) must be finite", {"CollisionOptions::iso"});
+    if (!std::isfinite(options.iso))
+        throw ParameterError("the iso-value (CollisionOptions::iso) must be finite", {"CollisionOptions::iso"});
     if (vertices.empty()) throw InputError("the mesh has no vertices");
     for (const Vec3d& v : vertices)
         if (!v.allFinite()) throw InputError("the mesh has a vertex that is not finite");

@@ -22,10 +22,10 @@ GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sour
     const double bytes = geodesicMarchBytes(band);
     if (options.maxBytes > 0 && bytes > options.maxBytes)
         throw MemoryLimitError("fast marching over " + std::to_string(band.size()) + " voxels needs about " + numberText(bytes / 1e9) +
-                             " GB beyond the band, more than the " + numberText(options.maxBytes / 1e9) +
-                             " GB allowed (GeodesicOptions::maxBytes): use a voxel size (BandOptions::voxelSize) of " +
-                             numberText(band.voxelSize * std::cbrt(bytes / options.maxBytes) * 1.1) + " or larger",
-                             {"GeodesicOptions::maxBytes", "BandOptions::voxelSize"});
+                                   " GB beyond the band, more than the " + numberText(options.maxBytes / 1e9) +
+                                   " GB allowed (GeodesicOptions::maxBytes): use a voxel size (BandOptions::voxelSize) of " +
+                                   numberText(band.voxelSize * std::cbrt(bytes / options.maxBytes) * 1.1) + " or larger",
+                               {"GeodesicOptions::maxBytes", "BandOptions::voxelSize"});
     GeodesicResult r;
     // === Snap the points to band voxels
     for (const Vec3d& s : sources) r.sourceIndex.push_back(nearestBandVoxel(band, s));

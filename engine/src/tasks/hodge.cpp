@@ -1,7 +1,7 @@
 #include "gpisvdb/tasks/hodge.h"
 
-#include <Eigen/Eigenvalues>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/ops/first_order.h"
@@ -104,8 +104,7 @@ double hodgeBytes(std::size_t n, const HodgeOptions& options, bool includeFallba
     return (held + phase) * double(n);
 }
 
-HodgeResult hodgeDecomposition(const Band& band, const std::vector<float>& V, const HodgeOptions& options,
-                               const Progress& progress) {
+HodgeResult hodgeDecomposition(const Band& band, const std::vector<float>& V, const HodgeOptions& options, const Progress& progress) {
     const std::size_t n = band.size();
     if (V.size() != 3 * n) throw Error("hodge: the vector field has the wrong length for this band");
     for (float v : V)
@@ -132,8 +131,8 @@ HodgeResult hodgeDecomposition(const Band& band, const std::vector<float>& V, co
     r.potential.assign(n, 0.0f);
     const double rhsNorm = massWeightedNorm(band, divV);
     const PcgOptions& so = options.solver;
-    const bool refineFromStart = so.refinement == Refinement::Always ||
-                                 (so.refinement == Refinement::Automatic && so.tolerance < kFloatPcgReach);
+    const bool refineFromStart =
+        so.refinement == Refinement::Always || (so.refinement == Refinement::Automatic && so.tolerance < kFloatPcgReach);
     bool refine = rhsNorm > 0 && refineFromStart;
     if (rhsNorm > 0 && !refineFromStart) {
         PcgOptions plain = so;

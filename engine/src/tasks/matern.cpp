@@ -1,8 +1,8 @@
 #include "gpisvdb/tasks/matern.h"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <Eigen/Cholesky>
 #include <limits>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -25,8 +25,7 @@ struct Posterior {
 };
 
 /// m × m: K = Φ W Φᵀ + S², α = K⁻¹ r, c = W Φᵀ α, P = W − (ΦW)ᵀ K⁻¹ (ΦW).
-Posterior functionSpace(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& W, const Eigen::VectorXd& noise,
-                        const Eigen::VectorXd& r) {
+Posterior functionSpace(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& W, const Eigen::VectorXd& noise, const Eigen::VectorXd& r) {
     const Eigen::MatrixXd PhiW = Phi * W.asDiagonal();
     Eigen::MatrixXd K = PhiW * Phi.transpose();
     K.diagonal() += noise.cwiseAbs2();
@@ -41,8 +40,7 @@ Posterior functionSpace(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& W, co
 }
 
 /// k × k (every noise > 0): B = W^½ Φᵀ S⁻¹, A = I + B Bᵀ, P = W^½ A⁻¹ W^½, c = W^½ A⁻¹ B S⁻¹ r.
-Posterior weightSpace(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& W, const Eigen::VectorXd& noise,
-                      const Eigen::VectorXd& r) {
+Posterior weightSpace(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& W, const Eigen::VectorXd& noise, const Eigen::VectorXd& r) {
     const Eigen::VectorXd sqrtW = W.cwiseSqrt();
     const Eigen::VectorXd invS = noise.cwiseInverse();
     const Eigen::MatrixXd B = sqrtW.asDiagonal() * Phi.transpose() * invS.asDiagonal();
@@ -58,8 +56,7 @@ Posterior weightSpace(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& W, cons
 }
 
 /// Mean ȳ + U c and variance diag(U P Uᵀ) (clamped at 0) for rows of U, in fixed blocks (thread-count independent).
-void evaluate(const Eigen::MatrixXd& U, const Posterior& post, double priorMean, double* mean, double* variance,
-              const Progress& progress) {
+void evaluate(const Eigen::MatrixXd& U, const Posterior& post, double priorMean, double* mean, double* variance, const Progress& progress) {
     const Eigen::Index n = U.rows();
     tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, (n + kRowBlock - 1) / kRowBlock),
                       [&](const tbb::blocked_range<Eigen::Index>& blocks) {
@@ -102,9 +99,9 @@ std::vector<std::pair<std::string, double>> regressionBytes(std::size_t voxels, 
 double defaultKappa(double area) { return 0.1 * std::sqrt(area); }
 
 Eigen::VectorXd maternWeights(const Eigen::VectorXd& eigenvalues, double area, const MaternOptions& o) {
-    if (!(o.nu > 0)) throw ParameterError("the Matérn smoothness ν (MaternOptions::nu) must be > 0 (1/2, 3/2, 5/2 or infinity), got " +
-                                           numberText(o.nu),
-                                       {"MaternOptions::nu"});
+    if (!(o.nu > 0))
+        throw ParameterError("the Matérn smoothness ν (MaternOptions::nu) must be > 0 (1/2, 3/2, 5/2 or infinity), got " + numberText(o.nu),
+                             {"MaternOptions::nu"});
     if (!(o.kappa > 0) || !std::isfinite(o.kappa))
         throw ParameterError("the Matérn length scale κ (MaternOptions::kappa) must be finite and > 0, got " + numberText(o.kappa),
                              {"MaternOptions::kappa"});
@@ -117,8 +114,8 @@ Eigen::VectorXd maternWeights(const Eigen::VectorXd& eigenvalues, double area, c
     Eigen::VectorXd logRho(eigenvalues.size());
     for (Eigen::Index i = 0; i < eigenvalues.size(); ++i) {
         const double l = eigenvalues(i);
-        logRho(i) = std::isinf(o.nu) ? -0.5 * o.kappa * o.kappa * l
-                                     : -(o.nu + 0.5 * o.dimension) * std::log(2 * o.nu / (o.kappa * o.kappa) + l);
+        logRho(i) =
+            std::isinf(o.nu) ? -0.5 * o.kappa * o.kappa * l : -(o.nu + 0.5 * o.dimension) * std::log(2 * o.nu / (o.kappa * o.kappa) + l);
     }
     const Eigen::VectorXd rho = (logRho.array() - logRho.maxCoeff()).exp().matrix();
     return (o.amplitude * area / rho.sum()) * rho;
@@ -146,8 +143,8 @@ Eigen::MatrixXd eigenFeatures(const Band& band, const Eigen::MatrixXd& vectors, 
             F.row(Eigen::Index(p)) += w * vectors.row(j);
         }
         if (!inside)
-            throw ParameterError("data point " + std::to_string(p + 1) + " (" + numberText(x.x()) + ", " + numberText(x.y()) +
-                                 ", " + numberText(x.z()) + ") lies outside the band: give points on the shape");
+            throw ParameterError("data point " + std::to_string(p + 1) + " (" + numberText(x.x()) + ", " + numberText(x.y()) + ", " +
+                                 numberText(x.z()) + ") lies outside the band: give points on the shape");
     }
     return F;
 }
@@ -156,8 +153,8 @@ Eigen::MatrixXd maternKernel(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,
     return a * weights.asDiagonal() * b.transpose();
 }
 
-RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const PointData& data,
-                              const RegressionOptions& options, const Progress& progress) {
+RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const PointData& data, const RegressionOptions& options,
+                              const Progress& progress) {
     const std::size_t m = data.value.size();
     if (m == 0) throw ParameterError("regression needs at least one data point");
     if (data.position.size() != m || data.noise.size() != m) throw ParameterError("data positions, values and noise differ in length");

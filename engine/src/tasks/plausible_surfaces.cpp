@@ -1,8 +1,8 @@
 #include "gpisvdb/tasks/plausible_surfaces.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <Eigen/Eigenvalues>
 #include <limits>
 #include <numeric>
 #include <tbb/blocked_range.h>
@@ -133,11 +133,10 @@ struct SurfaceDraws::Impl {
             int axis = 0;
             (hi - lo).maxCoeff(&axis);
             const std::uint32_t middle = begin + (end - begin) / 2;
-            std::nth_element(order.begin() + begin, order.begin() + middle, order.begin() + end,
-                             [&](std::uint32_t a, std::uint32_t b) {
-                                 const double pa = samples.position[a][axis], pb = samples.position[b][axis];
-                                 return pa < pb || (pa == pb && a < b);
-                             });
+            std::nth_element(order.begin() + begin, order.begin() + middle, order.begin() + end, [&](std::uint32_t a, std::uint32_t b) {
+                const double pa = samples.position[a][axis], pb = samples.position[b][axis];
+                return pa < pb || (pa == pb && a < b);
+            });
             node.left = split(order, begin, middle, samples);
             node.right = split(order, middle, end, samples);
         }
@@ -191,9 +190,9 @@ SurfaceDraws::SurfaceDraws(const Samples& samples, double s, const SurfaceDrawOp
     : impl_(std::make_unique<Impl>(s > 0 && std::isfinite(s) ? s : 1.0)) {
     if (!(s > 0) || !std::isfinite(s)) throw ParameterError("the kernel's smoothing must be positive and finite", {"s"});
     if (options.count < 1 || options.count > kMaxDraws)
-        throw ParameterError("the number of draws must be between 1 and " + std::to_string(kMaxDraws) + ", got " +
-                                 std::to_string(options.count),
-                             {"SurfaceDrawOptions::count"});
+        throw ParameterError(
+            "the number of draws must be between 1 and " + std::to_string(kMaxDraws) + ", got " + std::to_string(options.count),
+            {"SurfaceDrawOptions::count"});
     if (options.firstDraw < 0 || options.firstDraw > std::numeric_limits<int>::max() - options.count)
         throw ParameterError("the first draw's index must be >= 0 and leave room for the draws' indices in an int",
                              {"SurfaceDrawOptions::firstDraw"});
@@ -278,21 +277,22 @@ std::vector<double> SurfaceDraws::perturbationExact(const Vec3d& x) const {
 }
 
 std::vector<std::vector<float>> SurfaceDraws::onBand(const Band& band, const Progress& progress) const {
-    return onVoxels(band, band.size(), [](std::size_t j) { return j; }, progress);
+    return onVoxels(
+        band, band.size(), [](std::size_t j) { return j; }, progress);
 }
 
 std::vector<std::vector<float>> SurfaceDraws::onBand(const Band& band, const std::vector<std::size_t>& voxels,
                                                      const Progress& progress) const {
     for (std::size_t i : voxels)
         if (i >= band.size()) throw Error("a listed voxel is not in the band");
-    return onVoxels(band, voxels.size(), [&](std::size_t j) { return voxels[j]; }, progress);
+    return onVoxels(
+        band, voxels.size(), [&](std::size_t j) { return voxels[j]; }, progress);
 }
 
 template <class VoxelOf>
 std::vector<std::vector<float>> SurfaceDraws::onVoxels(const Band& band, std::size_t count, VoxelOf voxelOf,
                                                        const Progress& progress) const {
-    if (band.mean.size() != band.size())
-        throw Error("the band's mean channel was released (a spill): plausible surfaces need it");
+    if (band.mean.size() != band.size()) throw Error("the band's mean channel was released (a spill): plausible surfaces need it");
     const std::size_t n = std::size_t(impl_->options.count);
     std::vector<std::vector<float>> values(n, std::vector<float>(count));
     const double h = band.voxelSize;

@@ -11,7 +11,7 @@ namespace gpisvdb {
 namespace {
 
 constexpr double kMaxPoints = 1e8;
-constexpr double kMaxRayPoints = 1e6;  // one ray's points, all evaluated at once (160 B each)
+constexpr double kMaxRayPoints = 1e6;                       // one ray's points, all evaluated at once (160 B each)
 constexpr std::size_t kBatchPoints = std::size_t(1) << 18;  // points evaluated at once (160 B each)
 
 double normalPdf(double z) { return std::exp(-0.5 * z * z) * 0.3989422804014327; }
@@ -120,8 +120,10 @@ std::vector<RayHit> queryRays(const GpisModel& model, const std::vector<Ray>& ra
     double total = 0;
     for (const Ray& r : rays) total += double(rayPointCount(r, options.step));
     if (total > kMaxPoints)
-        throw ParameterError("the rays need " + numberText(total) + " points, more than 1e8: use a larger step "
-                             "(RayQueryOptions::step) or fewer rays", {"RayQueryOptions::step"});
+        throw ParameterError("the rays need " + numberText(total) +
+                                 " points, more than 1e8: use a larger step "
+                                 "(RayQueryOptions::step) or fewer rays",
+                             {"RayQueryOptions::step"});
     std::vector<RayHit> hits(rays.size());
     // === Batches of whole rays, each evaluated at once (the model's batch call is the parallel one)
     std::size_t done = 0;

@@ -18,10 +18,10 @@ constexpr int kLeafSize = 8;
 
 /// A node of the k-d tree.
 struct TreeNode {
-    Vec3d lo, hi;         // box of the node's points
-    Vec3d centre;         // weighted centroid c
-    double radius = 0;    // max ‖x_j − c‖
-    double weight = 0;    // Σ μ h³
+    Vec3d lo, hi;       // box of the node's points
+    Vec3d centre;       // weighted centroid c
+    double radius = 0;  // max ‖x_j − c‖
+    double weight = 0;  // Σ μ h³
     int begin = 0, end = 0;
     int left = -1, right = -1;
 };
@@ -67,7 +67,8 @@ struct SmoothedDistance::Impl {
         {  // freed before the children are built: otherwise every level's copies (36 B per point) stay alive
             std::vector<int> order(std::size_t(end - begin));
             std::iota(order.begin(), order.end(), begin);
-            std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return point[std::size_t(a)][axis] < point[std::size_t(b)][axis]; });
+            std::stable_sort(order.begin(), order.end(),
+                             [&](int a, int b) { return point[std::size_t(a)][axis] < point[std::size_t(b)][axis]; });
             std::vector<Vec3d> p(order.size());
             std::vector<double> w(order.size());
             for (std::size_t k = 0; k < order.size(); ++k) {
@@ -84,12 +85,8 @@ struct SmoothedDistance::Impl {
         return id;
     }
 
-    static double nearDistance(const Node& n, const Vec3d& x) {
-        return (n.lo - x).cwiseMax(x - n.hi).cwiseMax(0.0).norm();
-    }
-    static double farDistance(const Node& n, const Vec3d& x) {
-        return (x - n.lo).cwiseAbs().cwiseMax((x - n.hi).cwiseAbs()).norm();
-    }
+    static double nearDistance(const Node& n, const Vec3d& x) { return (n.lo - x).cwiseMax(x - n.hi).cwiseMax(0.0).norm(); }
+    static double farDistance(const Node& n, const Vec3d& x) { return (x - n.lo).cwiseAbs().cwiseMax((x - n.hi).cwiseAbs()).norm(); }
 
     /// min_j ‖x − x_j‖ by a nearest-first descent with box pruning.
     double nearest(const Vec3d& x) const {
@@ -114,7 +111,9 @@ struct SmoothedDistance::Impl {
 };
 
 SmoothedDistance::SmoothedDistance(const Band& band, double alpha) : impl_(std::make_unique<Impl>()) {
-    if (!(alpha > 0) || !std::isfinite(alpha)) throw ParameterError("the sharpness α (SmoothedDistanceOptions::alpha) must be finite and > 0 (world units^-1)", {"SmoothedDistanceOptions::alpha"});
+    if (!(alpha > 0) || !std::isfinite(alpha))
+        throw ParameterError("the sharpness α (SmoothedDistanceOptions::alpha) must be finite and > 0 (world units^-1)",
+                             {"SmoothedDistanceOptions::alpha"});
     if (band.size() == 0) throw Error("smoothed distance: the band is empty");
     const double h3 = std::pow(band.voxelSize, 3);
     impl_->alpha = alpha;
@@ -177,7 +176,8 @@ double SmoothedDistance::at(const Vec3d& x, double tolerance, std::size_t* terms
         // (An exponent above 600 marks a node far wider than 1/α: never collapsible, and e^x would overflow.)
         if (rho > 0 && alpha * (dStar - rho) < 600) {
             const double fc = n.weight * std::exp(-alpha * (dc - dStar));
-            const double bound = 0.5 * n.weight * n.radius * n.radius * std::exp(-alpha * (rho - dStar)) * std::max(alpha * alpha, alpha / rho);
+            const double bound =
+                0.5 * n.weight * n.radius * n.radius * std::exp(-alpha * (rho - dStar)) * std::max(alpha * alpha, alpha / rho);
             if (bound <= 0.5 * eps * (fc + share)) {
                 s += fc;
                 ++count;
@@ -209,12 +209,15 @@ DistanceGridShape smoothedDistanceGridShape(const Band& band, const SmoothedDist
     const Vec3d hi = band.voxelSize * Vec3d(box.max().x(), box.max().y(), box.max().z());
     const double side = (hi - lo).maxCoeff();
     const double pad = o.padding >= 0 ? o.padding : 0.1 * side;
-    if (!std::isfinite(pad)) throw ParameterError("the grid padding (SmoothedDistanceOptions::padding) must be finite", {"SmoothedDistanceOptions::padding"});
+    if (!std::isfinite(pad))
+        throw ParameterError("the grid padding (SmoothedDistanceOptions::padding) must be finite", {"SmoothedDistanceOptions::padding"});
     if (o.gridVoxelSize < 0 || !std::isfinite(o.gridVoxelSize))
-        throw ParameterError("the grid voxel size H (SmoothedDistanceOptions::gridVoxelSize) must be finite and > 0", {"SmoothedDistanceOptions::gridVoxelSize"});
+        throw ParameterError("the grid voxel size H (SmoothedDistanceOptions::gridVoxelSize) must be finite and > 0",
+                             {"SmoothedDistanceOptions::gridVoxelSize"});
     const double H = o.gridVoxelSize > 0 ? o.gridVoxelSize : (side + 2 * pad) / 128.0;
     if (!(H > 0) || !std::isfinite(H))
-        throw ParameterError("the grid voxel size H (SmoothedDistanceOptions::gridVoxelSize) must be finite and > 0", {"SmoothedDistanceOptions::gridVoxelSize"});
+        throw ParameterError("the grid voxel size H (SmoothedDistanceOptions::gridVoxelSize) must be finite and > 0",
+                             {"SmoothedDistanceOptions::gridVoxelSize"});
     DistanceGridShape shape;
     Eigen::Vector3d last;
     for (int c = 0; c < 3; ++c) {
@@ -248,8 +251,8 @@ std::vector<std::pair<std::string, double>> smoothedDistanceBytes(const Band& ba
     using Lower = Tree::RootNodeType::ChildNodeType::ChildNodeType;
     using Upper = Tree::RootNodeType::ChildNodeType;
     const double leafBytes = double(sizeof(Leaf) + Leaf::SIZE * sizeof(float));  // the node and its block of values
-    const double grid = spanned(Leaf::DIM) * leafBytes + spanned(Lower::DIM) * double(sizeof(Lower)) +
-                        spanned(Upper::DIM) * double(sizeof(Upper));
+    const double grid =
+        spanned(Leaf::DIM) * leafBytes + spanned(Lower::DIM) * double(sizeof(Lower)) + spanned(Upper::DIM) * double(sizeof(Upper));
     const double values = 4.0 * shape.points;  // float per point while they are computed
     // The larger of: the tree's build; the evaluation (the tree, the values, the grid they are copied into); the
     // command's level set (a copy of the grid beside it)
@@ -282,27 +285,33 @@ SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDist
     constexpr double kMaxPoints = 2147483648.0;  // 2^31: the points are counted in int
     if (!(points <= kMaxPoints) || (count.array() > 2e9).any())
         throw MemoryLimitError("the distance grid would hold " + numberText(points) + " points at grid voxel size H = " + numberText(H) +
-                             ", more than " + numberText(kMaxPoints) + ": use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " +
-                             numberText(H * std::cbrt(points / kMaxPoints) * 1.01) + " or larger",
-                             {"SmoothedDistanceOptions::gridVoxelSize"});
+                                   ", more than " + numberText(kMaxPoints) +
+                                   ": use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " +
+                                   numberText(H * std::cbrt(points / kMaxPoints) * 1.01) + " or larger",
+                               {"SmoothedDistanceOptions::gridVoxelSize"});
     if (o.maxBytes > 0) {
         // The peak as the command estimates it (docs/memory.md#distance)
         double need = 0;
         for (const auto& [name, bytes] : smoothedDistanceBytes(band, o, false)) need += bytes;
         if (need > o.maxBytes) {
             const std::string what = "the distance grid at grid voxel size H = " + numberText(H) + " needs about " +
-                                     numberText(need / 1e6) + " MB (the k-d tree over the band's voxels, the values and the dense grid), more than the " +
+                                     numberText(need / 1e6) +
+                                     " MB (the k-d tree over the band's voxels, the values and the dense grid), more than the " +
                                      numberText(o.maxBytes / 1e6) + " MB allowed (SmoothedDistanceOptions::maxBytes): ";
             if (const double fits = smoothedDistanceGridVoxelSizeWithin(band, o, false, o.maxBytes); fits > 0)
-                throw MemoryLimitError(what + "use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " + numberText(fits * 1.001) + " or larger",
-                                       {"SmoothedDistanceOptions::maxBytes", "SmoothedDistanceOptions::gridVoxelSize"});
-            throw MemoryLimitError(what + "no grid voxel size fits beside the k-d tree over the band's voxels and the grid's top-level "
-                                          "nodes: use a coarser voxel size (BandOptions::voxelSize) or raise the limit",
+                throw MemoryLimitError(
+                    what + "use a grid voxel size (SmoothedDistanceOptions::gridVoxelSize) of " + numberText(fits * 1.001) + " or larger",
+                    {"SmoothedDistanceOptions::maxBytes", "SmoothedDistanceOptions::gridVoxelSize"});
+            throw MemoryLimitError(what +
+                                       "no grid voxel size fits beside the k-d tree over the band's voxels and the grid's top-level "
+                                       "nodes: use a coarser voxel size (BandOptions::voxelSize) or raise the limit",
                                    {"SmoothedDistanceOptions::maxBytes", "BandOptions::voxelSize"});
         }
     }
     const double tol = o.tolerance > 0 ? o.tolerance : 1e-2 * H;
-    if (!std::isfinite(tol)) throw ParameterError("the distance tolerance (SmoothedDistanceOptions::tolerance) must be finite and > 0", {"SmoothedDistanceOptions::tolerance"});
+    if (!std::isfinite(tol))
+        throw ParameterError("the distance tolerance (SmoothedDistanceOptions::tolerance) must be finite and > 0",
+                             {"SmoothedDistanceOptions::tolerance"});
 
     const SmoothedDistance field(band, o.alpha);  // after the checks: a refused grid builds no tree
 

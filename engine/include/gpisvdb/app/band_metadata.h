@@ -22,7 +22,7 @@ struct BandProvenance {
 /// The file's metadata. modelOptions: the model's settings as asked; model: what they resolved to (σ, s, the
 /// training labels); options: the band's, voxel size resolved; budgeted: the band-voxel budget set the voxel size.
 openvdb::MetaMap bandMetadata(const BandProvenance& provenance, const ModelOptions& modelOptions, const LoadedModel& model,
-                              const BandOptions& options, const Resolution& resolution, bool budgeted,
-                              const BandResult& result, const VdbWriteOptions& vdb);
+                              const BandOptions& options, const Resolution& resolution, bool budgeted, const BandResult& result,
+                              const VdbWriteOptions& vdb);
 
 }  // namespace gpisvdb::app

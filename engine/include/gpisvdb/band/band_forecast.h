@@ -27,10 +27,10 @@ constexpr double kFinishSecondsPerBandVoxel = 0.5e-6;
 constexpr double kVdbWriteSecondsPerBandVoxel = 0.9e-6;
 
 struct BandForecast {
-    double voxels = 0;               ///< band voxels
-    double evaluated = 0;            ///< voxels buildBand evaluates
-    double peakBytes = 0;            ///< the build's (or the .vdb write's) peak resident set, bytes (as estimateBand)
-    std::size_t pilotVoxels = 0;     ///< voxels the pilot evaluated
+    double voxels = 0;            ///< band voxels
+    double evaluated = 0;         ///< voxels buildBand evaluates
+    double peakBytes = 0;         ///< the build's (or the .vdb write's) peak resident set, bytes (as estimateBand)
+    std::size_t pilotVoxels = 0;  ///< voxels the pilot evaluated
     /// The wall-clock time of evaluating them again in one call (the cells' far fields made; the faster of two), on
     /// this process's threads.
     double pilotSeconds = 0;

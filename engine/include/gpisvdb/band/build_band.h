@@ -15,14 +15,14 @@
 namespace gpisvdb {
 
 struct BandOptions {
-    double voxelSize = 0;          ///< h, world units (> 0; see chooseResolution)
-    double iso = 0.5;              ///< iso-value u of the surface φ = u
-    double etaRelative = 0.01;     ///< η relative to the median μ over the samples' voxels (> 0)
-    int qmcSamples = 512;          ///< S, QMC points for μ and T (≥ 1)
-    double maxAnisotropy = 20;     ///< T is regularised to √(λmax/λmin) ≤ this before Selling (≥ 1)
-    std::size_t maxVoxels = 0;     ///< refuse once more voxels than this would be evaluated (0: no limit)
+    double voxelSize = 0;                            ///< h, world units (> 0; see chooseResolution)
+    double iso = 0.5;                                ///< iso-value u of the surface φ = u
+    double etaRelative = 0.01;                       ///< η relative to the median μ over the samples' voxels (> 0)
+    int qmcSamples = 512;                            ///< S, QMC points for μ and T (≥ 1)
+    double maxAnisotropy = 20;                       ///< T is regularised to √(λmax/λmin) ≤ this before Selling (≥ 1)
+    std::size_t maxVoxels = 0;                       ///< refuse once more voxels than this would be evaluated (0: no limit)
     std::size_t batchVoxels = std::size_t(1) << 17;  ///< voxels evaluated together (≥ 1): bounds the build's transient
-                                   ///< memory (≈ 330 bytes each); the band does not depend on it
+                                                     ///< memory (≈ 330 bytes each); the band does not depend on it
     /// μ and T as each voxel's own share, the expected area inside it and its tangent moment over h³ (kacRiceVoxel),
     /// instead of their values at its centre; the band then also keeps every voxel that the linearised mean surface
     /// crosses. For voxels coarser than μ's width (docs/band.md#coarse-voxels), where centres miss the μ shell.
@@ -30,17 +30,17 @@ struct BandOptions {
 };
 
 struct BandStats {
-    double etaAbsolute = 0;        ///< η in world units⁻¹
-    double medianSampleMu = 0;     ///< median μ over the samples' voxels
-    std::size_t evaluated = 0;     ///< voxels where μ was computed (band + rejected frontier)
-    std::size_t regularised = 0;   ///< voxels whose T was regularised for anisotropy
-    int maxStencilL1 = 0;          ///< max ‖e‖₁ over the band
-    int levels = 0;                ///< BFS levels (scan: growth rounds)
+    double etaAbsolute = 0;       ///< η in world units⁻¹
+    double medianSampleMu = 0;    ///< median μ over the samples' voxels
+    std::size_t evaluated = 0;    ///< voxels where μ was computed (band + rejected frontier)
+    std::size_t regularised = 0;  ///< voxels whose T was regularised for anisotropy
+    int maxStencilL1 = 0;         ///< max ‖e‖₁ over the band
+    int levels = 0;               ///< BFS levels (scan: growth rounds)
     // Wall-clock seconds per stage (they sum to about the whole build):
-    double modelSeconds = 0;       ///< evaluating the GPIS at the visited voxels
-    double kacRiceSeconds = 0;     ///< μ, T, the channels and the Selling stencils from the Gaussians
-    double searchSeconds = 0;      ///< the BFS frontier (or the scan's boxes) and η
-    double finishSeconds = 0;      ///< the index tree in leaf order and the channels gathered in that order
+    double modelSeconds = 0;    ///< evaluating the GPIS at the visited voxels
+    double kacRiceSeconds = 0;  ///< μ, T, the channels and the Selling stencils from the Gaussians
+    double searchSeconds = 0;   ///< the BFS frontier (or the scan's boxes) and η
+    double finishSeconds = 0;   ///< the index tree in leaf order and the channels gathered in that order
 };
 
 struct BandResult {
@@ -50,26 +50,23 @@ struct BandResult {
 
 /// One voxel's fields, as a builder computes them; also the way to make a band from analytic fields.
 struct BandVoxel {
-    openvdb::Coord coord;            ///< index space; the centre is h·coord
-    double mu = 0;                   ///< μ, world units⁻¹
-    Mat3d T = Mat3d::Zero();         ///< T, world units⁻¹ (symmetric positive semi-definite)
-    double mean = 0;                 ///< γ
-    double stddev = 0;               ///< √c₀₀
-    Vec3d normal = Vec3d::Zero();    ///< outward unit normal
-    bool crossed = false;            ///< the mean surface γ = u, linearised at the centre, passes through the voxel
+    openvdb::Coord coord;          ///< index space; the centre is h·coord
+    double mu = 0;                 ///< μ, world units⁻¹
+    Mat3d T = Mat3d::Zero();       ///< T, world units⁻¹ (symmetric positive semi-definite)
+    double mean = 0;               ///< γ
+    double stddev = 0;             ///< √c₀₀
+    Vec3d normal = Vec3d::Zero();  ///< outward unit normal
+    bool crossed = false;          ///< the mean surface γ = u, linearised at the centre, passes through the voxel
 };
 
 /// The band over `voxels` (distinct coordinates): the index tree in leaf order, the channels, and the Selling
 /// stencil of T regularised to anisotropy ≤ maxAnisotropy. Fills stats.regularised and stats.maxStencilL1.
-BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy,
-                          const Progress& progress = {});
+BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy, const Progress& progress = {});
 
-BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& options,
-                     const Progress& progress = {});
+BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& options, const Progress& progress = {});
 
 /// Baseline: evaluates every voxel of the samples' bounding box, grown until no band voxel touches its boundary.
-BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& options,
-                    const Progress& progress = {});
+BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& options, const Progress& progress = {});
 
 // === The steps buildBand is made of, for builders that distribute them (mpi/, docs/mpi.md)
 
@@ -87,10 +84,9 @@ const std::array<openvdb::Coord, kBfsNeighbours>& bfsNeighbourOffsets();
 /// The GPIS, then μ, T, γ, √c₀₀ and the normal by Kac–Rice, at the voxel centres h·c of coords[begin, end), in
 /// parallel (μ and T the voxels' own shares when voxelValues); the seconds of each part are added to
 /// stats.modelSeconds and stats.kacRiceSeconds. A voxel's result does not depend on the others evaluated with it.
-std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<openvdb::Coord>& coords,
-                                          std::size_t begin, std::size_t end, double voxelSize, double iso,
-                                          const QmcRule& rule, bool voxelValues, const Progress& progress,
-                                          BandStats& stats);
+std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<openvdb::Coord>& coords, std::size_t begin,
+                                          std::size_t end, double voxelSize, double iso, const QmcRule& rule, bool voxelValues,
+                                          const Progress& progress, BandStats& stats);
 
 /// The QMC points a band's μ and T take: S, or S/4 (at least 1) with voxel values, whose integrand the cube's
 /// average smooths (S/4 = 128 is within 1 % of 8192 points; docs/band.md#coarse-voxels).
@@ -99,9 +95,7 @@ inline int bandQmcSamples(const BandOptions& options) {
 }
 
 /// Whether a band keeps a voxel: μ > η, or (with voxel values) the mean surface crosses it.
-inline bool keepsVoxel(const BandVoxel& v, double eta, bool voxelValues) {
-    return v.mu > eta || (voxelValues && v.crossed && v.mu > 0);
-}
+inline bool keepsVoxel(const BandVoxel& v, double eta, bool voxelValues) { return v.mu > eta || (voxelValues && v.crossed && v.mu > 0); }
 
 /// η = etaRelative × the median of `mus` (μ at the samples' voxels); sets stats.medianSampleMu and etaAbsolute.
 /// Throws InputError when the median is not positive.

@@ -94,7 +94,7 @@ struct DefaultBandOptions {
     /// (estimated), h is raised until it holds about this many (≥ 1000; 0: no budget). Ignored for a given voxel size.
     double maxBandVoxels = kDefaultMaxBandVoxels;
     VoxelValues values = VoxelValues::Point;  ///< sets band.voxelValues
-    BandBuilder build;             ///< empty: buildBand
+    BandBuilder build;                        ///< empty: buildBand
 };
 
 /// What buildDefaultBand will build, decided before the model is evaluated at a single voxel (planDefaultBand).
@@ -145,8 +145,8 @@ DefaultBandPlan planDefaultBandFor(LoadedModel& model, const ModelOptions& model
                                    const Progress& progress = {});
 
 /// The band of a plan (planDefaultBand): `build` (empty: buildBand) with the plan's options.
-DefaultBand buildPlannedBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan,
-                             const BandBuilder& build = {}, const Progress& progress = {});
+DefaultBand buildPlannedBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan, const BandBuilder& build = {},
+                             const Progress& progress = {});
 
 /// planDefaultBand, then buildBand (or options.build). Throws ParameterError for bad options, MemoryLimitError
 /// (naming DefaultBandOptions::maxMemory and BandOptions::voxelSize, with the voxel size that would fit) when the

@@ -19,8 +19,7 @@ namespace gpisvdb {
 struct Error : std::runtime_error {
     explicit Error(const std::string& what, std::vector<std::string> parameters = {})
         : std::runtime_error(what),
-          parameters_(parameters.empty() ? nullptr
-                                         : std::make_shared<const std::vector<std::string>>(std::move(parameters))) {}
+          parameters_(parameters.empty() ? nullptr : std::make_shared<const std::vector<std::string>>(std::move(parameters))) {}
     /// The Options fields the message names ("Struct::field"), in the order it names them.
     const std::vector<std::string>& parameters() const noexcept {
         static const std::vector<std::string> none;

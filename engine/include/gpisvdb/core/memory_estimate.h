@@ -31,9 +31,9 @@ bool resetPeakResident();
 
 /// A stage's estimate: the baseline measured at its start and the bytes it will allocate, named by part.
 struct MemoryEstimate {
-    double baselineBytes = 0;                               ///< resident set at the stage's start, bytes
-    std::vector<std::pair<std::string, double>> parts;     ///< what the stage allocates, bytes, by name
-    double stageBytes() const;                              ///< Σ parts, bytes
+    double baselineBytes = 0;                                          ///< resident set at the stage's start, bytes
+    std::vector<std::pair<std::string, double>> parts;                 ///< what the stage allocates, bytes, by name
+    double stageBytes() const;                                         ///< Σ parts, bytes
     double peakBytes() const { return baselineBytes + stageBytes(); }  ///< the estimated peak resident set, bytes
 };
 

@@ -8,25 +8,25 @@
 namespace gpisvdb {
 
 struct PointCloud {
-    std::vector<Vec3d> positions;   ///< world units
-    std::vector<Vec3d> normals;     ///< any length > 0; normalised when sampled
-    std::vector<double> sigmas;     ///< optional per-point position std (world units); empty = use sigmaRel
-    std::vector<double> areas;      ///< optional per-point area (world units²); empty = estimate
-    std::vector<Sym3> normalCovariances;  ///< optional per-point Σ'_i, the covariance of the vector area a_i n_i
-                                          ///< (world units⁴; a .gdp's); empty = the formula of cloudSamples
+    std::vector<Vec3d> positions;           ///< world units
+    std::vector<Vec3d> normals;             ///< any length > 0; normalised when sampled
+    std::vector<double> sigmas;             ///< optional per-point position std (world units); empty = use sigmaRel
+    std::vector<double> areas;              ///< optional per-point area (world units²); empty = estimate
+    std::vector<Sym3> normalCovariances;    ///< optional per-point Σ'_i, the covariance of the vector area a_i n_i
+                                            ///< (world units⁴; a .gdp's); empty = the formula of cloudSamples
     std::vector<double> positionVariances;  ///< optional per-point σ_i² (world units²), in place of sigmas (a .gdp's,
                                             ///< kept exact)
-    bool vectorAreas = false;  ///< the normals are the vector areas w_i themselves (a .gdp's), taken as they are
-    double lengthScale = 0;    ///< > 0: ℓ as given (world units; a .gdp written by gpisvdb), else √(area / points)
+    bool vectorAreas = false;               ///< the normals are the vector areas w_i themselves (a .gdp's), taken as they are
+    double lengthScale = 0;                 ///< > 0: ℓ as given (world units; a .gdp written by gpisvdb), else √(area / points)
 };
 
 struct CloudNoiseOptions {
     double sigmaRel = kDefaultSigmaRel;  ///< default position std relative to ℓ when a point has no sigma, > 0
-    int areaNeighbours = 8; ///< k: the area estimate counts points in a cylinder of radius 2 × (k-th neighbour distance)
-    int areaDoublings = 5;  ///< the cylinder's radius doubles at most this often while its points lie along a line, 0…20
-    double areaIsotropy = 0.3; ///< ... that is, while their tangent second moments' ratio (min/max) is below this, 0…1
-    int areaGrowthPoints = 32; ///< ... and while it holds at most this × k points (≥ 1): past that a cylinder that is
-                               ///< still not covered (a corner, a strip, an outlier) keeps its first area
+    int areaNeighbours = 8;              ///< k: the area estimate counts points in a cylinder of radius 2 × (k-th neighbour distance)
+    int areaDoublings = 5;               ///< the cylinder's radius doubles at most this often while its points lie along a line, 0…20
+    double areaIsotropy = 0.3;           ///< ... that is, while their tangent second moments' ratio (min/max) is below this, 0…1
+    int areaGrowthPoints = 32;           ///< ... and while it holds at most this × k points (≥ 1): past that a cylinder that is
+                                         ///< still not covered (a corner, a strip, an outlier) keeps its first area
 };
 
 struct CloudSamples {

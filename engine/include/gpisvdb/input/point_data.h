@@ -12,7 +12,7 @@ namespace gpisvdb {
 struct PointData {
     std::vector<Vec3d> position;  ///< world units
     std::vector<double> value;
-    std::vector<double> noise;    ///< standard deviation of each value (≥ 0), same units as the values
+    std::vector<double> noise;  ///< standard deviation of each value (≥ 0), same units as the values
 };
 
 /// Throws InputError naming the file (and line) on a missing or empty file, a row of other than 4 or 5 numbers,

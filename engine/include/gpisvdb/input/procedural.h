@@ -16,8 +16,7 @@ TriangleSoup torus(int u, int v, double major = 1.0, double minor = 0.4);
 /// lines) `across` world units apart on the surface, points `along` world units apart on each ring, each ring at
 /// a random phase and each point moved along its ring by up to ±jitter/2 × along (seeded). Area per point
 /// ≈ along × across; the torus's area is 4π² major·minor. Normals outward, no σ column.
-PointCloud scanLineTorus(double along, double across, double major = 3.0, double minor = 1.0, double jitter = 0.5,
-                         unsigned seed = 1);
+PointCloud scanLineTorus(double along, double across, double major = 3.0, double minor = 1.0, double jitter = 0.5, unsigned seed = 1);
 
 /// Removes every triangle whose barycentre has z > zCut (makes a hole: the demo's "missing data").
 TriangleSoup cutAbove(const TriangleSoup& soup, double zCut);

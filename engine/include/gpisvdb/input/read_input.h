@@ -18,8 +18,8 @@ constexpr std::size_t kMaxInputSamples = 100000000;
 
 struct InputData {
     std::string path;
-    std::optional<TriangleSoup> soup;   ///< set for meshes
-    std::optional<PointCloud> cloud;    ///< set for point clouds
+    std::optional<TriangleSoup> soup;      ///< set for meshes
+    std::optional<PointCloud> cloud;       ///< set for point clouds
     std::size_t polygonsTriangulated = 0;  ///< polygons with > 3 corners fan-triangulated
 };
 
@@ -37,10 +37,10 @@ struct InputSamples {
     double sigma = 0;                   ///< absolute σ (world units)
     std::size_t degenerateSkipped = 0;  ///< zero-area triangles left out
     bool isSoup = false;
-    bool absoluteNoise = false;         ///< a cloud with its own σ per point (world units), not σ = sigmaRel·ℓ
-    bool lengthScaleGiven = false;      ///< ℓ came with the input (a .gdp written by gpisvdb), not from its geometry
-    bool normalsFlipped = false;        ///< the input's normals pointed inward and were flipped (loadModel,
-                                        ///< ModelOptions::orientOutward; docs/math.md#orientation)
+    bool absoluteNoise = false;     ///< a cloud with its own σ per point (world units), not σ = sigmaRel·ℓ
+    bool lengthScaleGiven = false;  ///< ℓ came with the input (a .gdp written by gpisvdb), not from its geometry
+    bool normalsFlipped = false;    ///< the input's normals pointed inward and were flipped (loadModel,
+                                    ///< ModelOptions::orientOutward; docs/math.md#orientation)
 };
 
 /// Samples of either kind of input with its noise model.

@@ -23,11 +23,11 @@ struct Sym3 {
 };
 
 struct Samples {
-    std::vector<Vec3d> position;            ///< p_i, world units
-    std::vector<Vec3d> normal;              ///< w_i, vector area (outward), world units²
-    std::vector<double> positionVariance;   ///< Σ_i = v_i I (isotropic for both noise models), world units²
-    std::vector<Sym3> normalCovariance;     ///< Σ'_i, world units⁴
-    double lengthScale = 0;                 ///< ℓ, world units: mean edge length (soup) or √(area / points) (cloud)
+    std::vector<Vec3d> position;           ///< p_i, world units
+    std::vector<Vec3d> normal;             ///< w_i, vector area (outward), world units²
+    std::vector<double> positionVariance;  ///< Σ_i = v_i I (isotropic for both noise models), world units²
+    std::vector<Sym3> normalCovariance;    ///< Σ'_i, world units⁴
+    double lengthScale = 0;                ///< ℓ, world units: mean edge length (soup) or √(area / points) (cloud)
 
     std::size_t size() const { return position.size(); }
 };

@@ -10,8 +10,8 @@
 namespace gpisvdb {
 
 struct TriangleSoup {
-    std::vector<Vec3d> vertices;                 ///< world units
-    std::vector<std::array<int, 3>> triangles;   ///< vertex indices, counter-clockwise seen from outside
+    std::vector<Vec3d> vertices;                ///< world units
+    std::vector<std::array<int, 3>> triangles;  ///< vertex indices, counter-clockwise seen from outside
 };
 
 struct SoupNoiseOptions {

@@ -14,8 +14,7 @@ double boxGaussianDensity(double x, double a, double b, double c, double s);
 
 /// boxGaussianDensity at n points x[i] with widths (a[i], b[i], c[i]) that share one s, erf and exp taken in SIMD
 /// lanes (the values agree with boxGaussianDensity's to rounding): the voxel Kac–Rice's inner loop.
-void boxGaussianDensities(std::size_t n, const double* x, const double* a, const double* b, const double* c, double s,
-                          double* out);
+void boxGaussianDensities(std::size_t n, const double* x, const double* a, const double* b, const double* c, double s, double* out);
 
 /// The same by a plain sum over a fine midpoint grid of the uniforms (n³ points): the reference the tests use.
 double boxGaussianDensityReference(double x, double a, double b, double c, double s, int n = 200);

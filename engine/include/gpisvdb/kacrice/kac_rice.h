@@ -9,9 +9,9 @@
 namespace gpisvdb {
 
 struct SurfaceDensity {
-    double mu = 0;                ///< μ, world units⁻¹ (area per volume)
-    Mat3d T = Mat3d::Zero();      ///< T, world units⁻¹
-    double density = 0;           ///< p_φ(x)(u), the value density of φ at the iso-value
+    double mu = 0;                       ///< μ, world units⁻¹ (area per volume)
+    Mat3d T = Mat3d::Zero();             ///< T, world units⁻¹
+    double density = 0;                  ///< p_φ(x)(u), the value density of φ at the iso-value
     Vec3d meanGradient = Vec3d::Zero();  ///< m = E[∇φ | φ = u], world units⁻¹ (points into γ > u)
 };
 

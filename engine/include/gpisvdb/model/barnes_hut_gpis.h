@@ -18,23 +18,23 @@
 namespace gpisvdb {
 
 struct BarnesHutOptions {
-    double beta = 6.0;              ///< accuracy: a node stands in for its samples' mean beyond beta × its radius,
-                                    ///< and for their covariance beyond covarianceRatio·beta × its radius near
-                                    ///< the query (dimensionless, > 1)
-    double covarianceRatio = 2.0;   ///< the covariance's opening ratio near the query, in units of beta
-                                    ///< (dimensionless, ≥ 1): its expansion is first order, the mean's second
-    double covarianceRelax = 5.0;   ///< beyond this distance (units of the smoothing s) the covariance ratio
-                                    ///< relaxes like √(L/d), down to 2 (or to covarianceRatio·beta if smaller)
-    int leafSize = 32;     ///< most samples in a leaf (≥ 1); 32 is both faster and more accurate than 16 in packets
-                           ///< (docs/model.md#packets)
-    bool floatNearField = true;  ///< packets sum a leaf's samples in float lanes, in units of s (≈ 1e-6 relative,
-                                 ///< docs/model.md#packets); false: in double, to rounding of evaluate(x)
-    double cellWidth = 12;  ///< > 0: evaluateDense (a band's voxels) shares the far field per cell of this width
-                            ///< (units of s, a lattice anchored at the world origin), Chebyshev-interpolated
-                            ///< (docs/model.md#cells); 0: every packet sums its own, to rounding of evaluate(x)
-    int cellNodes = 4;     ///< Chebyshev nodes per axis of a cell's interpolant (2…8)
-    double cellSeparation = 1;  ///< a node joins a cell's far field only this far from the cell (units of cellWidth,
-                                ///< ≥ 0.5), besides passing the opening tests for every point of the cell
+    double beta = 6.0;             ///< accuracy: a node stands in for its samples' mean beyond beta × its radius,
+                                   ///< and for their covariance beyond covarianceRatio·beta × its radius near
+                                   ///< the query (dimensionless, > 1)
+    double covarianceRatio = 2.0;  ///< the covariance's opening ratio near the query, in units of beta
+                                   ///< (dimensionless, ≥ 1): its expansion is first order, the mean's second
+    double covarianceRelax = 5.0;  ///< beyond this distance (units of the smoothing s) the covariance ratio
+                                   ///< relaxes like √(L/d), down to 2 (or to covarianceRatio·beta if smaller)
+    int leafSize = 32;             ///< most samples in a leaf (≥ 1); 32 is both faster and more accurate than 16 in packets
+                                   ///< (docs/model.md#packets)
+    bool floatNearField = true;    ///< packets sum a leaf's samples in float lanes, in units of s (≈ 1e-6 relative,
+                                   ///< docs/model.md#packets); false: in double, to rounding of evaluate(x)
+    double cellWidth = 12;         ///< > 0: evaluateDense (a band's voxels) shares the far field per cell of this width
+                                   ///< (units of s, a lattice anchored at the world origin), Chebyshev-interpolated
+                                   ///< (docs/model.md#cells); 0: every packet sums its own, to rounding of evaluate(x)
+    int cellNodes = 4;             ///< Chebyshev nodes per axis of a cell's interpolant (2…8)
+    double cellSeparation = 1;     ///< a node joins a cell's far field only this far from the cell (units of cellWidth,
+                                   ///< ≥ 0.5), besides passing the opening tests for every point of the cell
     /// cellCacheBytes' default: room for a table per cell within one cell of a sample's cell (a band's cells,
     /// docs/model.md#cells), at least 64 MB.
     static constexpr std::size_t kAutoCellCache = std::numeric_limits<std::size_t>::max();
@@ -78,26 +78,26 @@ public:
 
     /// Tree topology and the opening test: what every visit reads, kept small for the cache.
     struct Node {
-        Vec3d centre;                         ///< expansion centre (|w|-weighted centroid)
-        double radius = 0;                    ///< max distance of the node's samples to `centre`
-        std::uint32_t begin = 0, end = 0;     ///< sample range (tree order)
-        std::uint32_t firstChild = 0;         ///< children are contiguous
+        Vec3d centre;                      ///< expansion centre (|w|-weighted centroid)
+        double radius = 0;                 ///< max distance of the node's samples to `centre`
+        std::uint32_t begin = 0, end = 0;  ///< sample range (tree order)
+        std::uint32_t firstChild = 0;      ///< children are contiguous
         std::uint8_t childCount = 0;
     };
     /// Moments for the mean's far field, δ = p − centre; read only when the node is far.
     struct MeanMoments {
-        Vec3d w0;                     ///< Σ w
-        Mat3d m1;                     ///< Σ δ wᵀ
-        Mat3d m2[3];                  ///< m2[n](l, m) = Σ δ_l δ_m w_n
-        Vec3d m2trace;                ///< Σ_l m2[n](l, l), per n
-        Vec3d m2mixed;                ///< Σ_l m2[l](l, m), per m
+        Vec3d w0;       ///< Σ w
+        Mat3d m1;       ///< Σ δ wᵀ
+        Mat3d m2[3];    ///< m2[n](l, m) = Σ δ_l δ_m w_n
+        Vec3d m2trace;  ///< Σ_l m2[n](l, l), per n
+        Vec3d m2mixed;  ///< Σ_l m2[l](l, m), per m
     };
     /// Moments for the covariance's far field; read only when the node is far.
     struct CovarianceMoments {
-        Mat3d posW;                   ///< Σ σ² w wᵀ
-        Mat3d posB[3];                ///< posB[n](l, m) = Σ σ² δ_l w_m w_n
-        Mat3d nrmS;                   ///< Σ Σ'
-        Mat3d nrmC[3];                ///< nrmC[l] = Σ δ_l Σ'
+        Mat3d posW;     ///< Σ σ² w wᵀ
+        Mat3d posB[3];  ///< posB[n](l, m) = Σ σ² δ_l w_m w_n
+        Mat3d nrmS;     ///< Σ Σ'
+        Mat3d nrmC[3];  ///< nrmC[l] = Σ δ_l Σ'
     };
 
     /// A sample in units of the smoothing s, in float, for the packets' near field (docs/model.md#packets): w/s²,
@@ -125,8 +125,8 @@ private:
     void traversePacket(const Root* roots, std::size_t rootCount, const double (*xs)[kPacket], double (*mean)[kPacket],
                         double (*cov)[4][kPacket]) const;
     /// The far expansions of the listed nodes at every point of a packet, unnormalised, as traversePacket.
-    void farPacket(const std::uint32_t* meanNodes, std::size_t meanCount, const std::uint32_t* covNodes,
-                   std::size_t covCount, const double (*xs)[kPacket], double (*mean)[kPacket], double (*cov)[4][kPacket]) const;
+    void farPacket(const std::uint32_t* meanNodes, std::size_t meanCount, const std::uint32_t* covNodes, std::size_t covCount,
+                   const double (*xs)[kPacket], double (*mean)[kPacket], double (*cov)[4][kPacket]) const;
     static constexpr int kMaxDepth = 48;  // coincident samples stop splitting here
     void split(std::uint32_t node, int depth);
     /// Appends a node over samples [begin, end) with its moments; returns its index.
@@ -153,10 +153,10 @@ private:
 
     struct CellCache;  // barnes_hut_cells.cpp
     static std::shared_ptr<CellCache> newCellCache();
-    std::shared_ptr<CellCache> cells_;  // filled by const batches: a cell's table depends on nothing but the cell
+    std::shared_ptr<CellCache> cells_;        // filled by const batches: a cell's table depends on nothing but the cell
     const CellCache& sizedCellCache() const;  // cells_, its cap resolved on first use
 
-    Samples samples_;  // reordered so that every node's samples are contiguous
+    Samples samples_;                      // reordered so that every node's samples are contiguous
     std::vector<NearSample> nearSamples_;  // samples_ in units of s, in float, in the same order
     std::vector<Node> nodes_;
     std::vector<MeanMoments> meanMoments_;       // per node

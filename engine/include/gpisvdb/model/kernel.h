@@ -50,11 +50,11 @@ public:
 
 private:
     double s_;
-    double a_;         // 1 / (√2 s)
-    double a2_;        // a²
-    double c_;         // 2a/√π, the leading factor of erf(a r)
-    double tSwitch_;   // r² below which the series is used
-    double tFar_;      // r² beyond which erf = 1 and the Gaussian terms vanish in double
+    double a_;        // 1 / (√2 s)
+    double a2_;       // a²
+    double c_;        // 2a/√π, the leading factor of erf(a r)
+    double tSwitch_;  // r² below which the series is used
+    double tFar_;     // r² beyond which erf = 1 and the Gaussian terms vanish in double
 };
 
 }  // namespace gpisvdb

@@ -26,17 +26,17 @@ constexpr double kNoiseSmoothing = 1.2;
 constexpr double kDefaultSmoothingRel = 0.4;
 
 struct ModelOptions {
-    double sigmaRel = kDefaultSigmaRel;  ///< vertex/point noise std σ relative to ℓ (> 0)
+    double sigmaRel = kDefaultSigmaRel;          ///< vertex/point noise std σ relative to ℓ (> 0)
     double smoothingRel = kDefaultSmoothingRel;  ///< kernel smoothing s relative to ℓ (regression: to the training spacing) (> 0)
     /// Winding model of a cloud with its own σ per point (InputSamples::absoluteNoise): s is at least this × σ_p, the
     /// samples' median position std (world units), so that s follows the noise where the points are denser than it
     /// (≥ 0; 0: s = smoothingRel·ℓ alone). Where σ = sigmaRel·ℓ, s/σ is fixed by the two. docs/math.md#smoothing.
     double noiseSmoothing = kNoiseSmoothing;
     ModelKind kind = ModelKind::Winding;
-    bool exact = false;                ///< winding: direct O(n) sums instead of Barnes–Hut
-    BarnesHutOptions barnesHut;        ///< winding, not exact: the tree's accuracy
-    TrainingOptions training;          ///< regression: labels generated from the input (when `labels` is empty)
-    std::optional<LabelledPoints> labels;  ///< regression: the training labels; empty: generated from the input
+    bool exact = false;                                      ///< winding: direct O(n) sums instead of Barnes–Hut
+    BarnesHutOptions barnesHut;                              ///< winding, not exact: the tree's accuracy
+    TrainingOptions training;                                ///< regression: labels generated from the input (when `labels` is empty)
+    std::optional<LabelledPoints> labels;                    ///< regression: the training labels; empty: generated from the input
     double labelNoise = RegressionGpisOptions{}.labelNoise;  ///< regression: std of the labels (≥ 0)
     /// Flip the input's normals when they point inward: the winding number's median at the samples is −1/2 there
     /// instead of +1/2, and the default surface γ = 1/2 would not exist (docs/math.md#orientation).
@@ -53,7 +53,7 @@ const char* smoothingSourceName(SmoothingSource source);  ///< "length scale", "
 
 struct LoadedModel {
     InputSamples input;
-    double smoothing = 0;          ///< absolute s, world units
+    double smoothing = 0;  ///< absolute s, world units
     SmoothingSource smoothingSource = SmoothingSource::LengthScale;
     std::size_t trainingSize = 0;  ///< labelled points of the regression model (0: winding model)
     std::unique_ptr<GpisModel> model;
@@ -72,8 +72,8 @@ constexpr const char* kNormalsFlippedNote =
     "is gamma = 1/2 and the inside is the side they enclose (docs/math.md#orientation)";
 
 /// The input's samples with σ = sigmaRel·ℓ, their normals flipped if they point inward (orientOutward), then the model
-/// (winding: s = smoothingRel·ℓ, or noiseSmoothing·σ_p where that is larger and the cloud gives its own σ). Throws ParameterError naming the ModelOptions (or the
-/// noise options') field on a bad parameter, InputError on unusable input.
+/// (winding: s = smoothingRel·ℓ, or noiseSmoothing·σ_p where that is larger and the cloud gives its own σ). Throws ParameterError naming
+/// the ModelOptions (or the noise options') field on a bad parameter, InputError on unusable input.
 LoadedModel loadModel(const InputData& data, const ModelOptions& options = {});
 
 /// The same samples in a winding model (as options.exact asks) of smoothing s (world units, > 0), set by `source`.

@@ -24,7 +24,7 @@ namespace gpisvdb {
 struct LabelledPoints {
     std::vector<Vec3d> position;  ///< world units
     std::vector<double> label;
-    std::vector<double> noise;    ///< std of each label (≥ 0); empty: RegressionGpisOptions::labelNoise for all
+    std::vector<double> noise;  ///< std of each label (≥ 0); empty: RegressionGpisOptions::labelNoise for all
     std::size_t size() const { return position.size(); }
 };
 
@@ -42,11 +42,11 @@ LabelledPoints trainingFromSamples(const Samples& samples, const TrainingOptions
 LabelledPoints readLabelledPoints(const std::string& path);
 
 struct RegressionGpisOptions {
-    double smoothing = 0;      ///< s of the kernel ρ_s, world units (> 0)
+    double smoothing = 0;         ///< s of the kernel ρ_s, world units (> 0)
     double amplitude = 1.0 / 16;  ///< prior variance a = k(x, x), label units² (> 0): std 1/4 of the label step, so that far
-                               ///< from the samples φ ≥ 0 is a 4σ event and μ there falls ~1e-5 below its surface value
-    double labelNoise = 0.05;  ///< std of the labels when the points carry none, label units (≥ 0; > 0 keeps K well conditioned)
-    double priorMean = -1;     ///< m₀: the value far from every sample (the outside label)
+                                  ///< from the samples φ ≥ 0 is a 4σ event and μ there falls ~1e-5 below its surface value
+    double labelNoise = 0.05;     ///< std of the labels when the points carry none, label units (≥ 0; > 0 keeps K well conditioned)
+    double priorMean = -1;        ///< m₀: the value far from every sample (the outside label)
 };
 
 class RegressionGpis final : public GpisModel {

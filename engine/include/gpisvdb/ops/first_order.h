@@ -25,8 +25,7 @@ enum class Boundary { Dirichlet, Neumann };
 /// out (3N) = G u.
 void gradient(const Band& band, const std::vector<float>& u, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
 /// out (N) = Gᵀ v, v of length 3N.
-void gradientTranspose(const Band& band, const std::vector<float>& v, std::vector<float>& out,
-                       Boundary bc = Boundary::Dirichlet);
+void gradientTranspose(const Band& band, const std::vector<float>& v, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
 /// out (3N) = G_φ u = (T/μ) G u per voxel.
 void gradPhi(const Band& band, const std::vector<float>& u, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
 /// The same from a potential held in double (a refined PCG solution, solve/pcg.h), rounded to float once, at the end.
@@ -35,9 +34,9 @@ void gradPhi(const Band& band, const std::vector<double>& u, std::vector<float>&
 void divPhi(const Band& band, const std::vector<float>& V, std::vector<float>& out, Boundary bc = Boundary::Dirichlet);
 
 SparseMatrixF assembleGradient(const Band& band, Boundary bc = Boundary::Dirichlet);  ///< G, 3N × N
-SparseMatrixF assembleGradPhi(const Band& band);        ///< G_φ, 3N × N
-SparseMatrixF assembleDivPhi(const Band& band);         ///< D_φ, N × 3N
-SparseMatrixF assembleNaiveLaplacian(const Band& band); ///< D_φ G_φ, N × N (M-self-adjoint, not symmetric)
+SparseMatrixF assembleGradPhi(const Band& band);                                      ///< G_φ, 3N × N
+SparseMatrixF assembleDivPhi(const Band& band);                                       ///< D_φ, N × 3N
+SparseMatrixF assembleNaiveLaplacian(const Band& band);                               ///< D_φ G_φ, N × N (M-self-adjoint, not symmetric)
 
 /// K = M D_φ G_φ = Gᵀ BlockDiag(h³ T) G, symmetric positive semi-definite, uᵀ K u = h³ Σ_x (Gu)ᵀ T (Gu)
 /// (the naive discretisation of E[E_D(u)]). Holds a 3N work vector, so one object must not be applied from two

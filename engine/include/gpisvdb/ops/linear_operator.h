@@ -3,8 +3,8 @@
 // Each applies in two precisions: float in and out (the PCG's iterations), and double in and out for the residual
 // of iterative refinement (solve/pcg.h). Both apply the same matrix — the float stencil weights or entries the
 // operator holds — and both sum in double; the double form only skips the rounding of input and output to float,
-// so that b − A x can be resolved far below float's 6e-8. Implementations: the matrix-free Laplacian (laplacian.h), the naive first-order Laplacian (first_order.h), and
-// any assembled matrix (AssembledOperator).
+// so that b − A x can be resolved far below float's 6e-8. Implementations: the matrix-free Laplacian (laplacian.h), the naive first-order
+// Laplacian (first_order.h), and any assembled matrix (AssembledOperator).
 #include <cstddef>
 #include <Eigen/SparseCore>
 #include <vector>

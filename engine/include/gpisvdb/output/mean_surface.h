@@ -9,7 +9,7 @@
 namespace gpisvdb {
 
 struct SurfaceMesh {
-    std::vector<openvdb::Vec3s> vertices;          ///< world units
+    std::vector<openvdb::Vec3s> vertices;  ///< world units
     std::vector<std::array<int, 3>> triangles;
     std::vector<std::string> arrayNames;           ///< per-vertex arrays
     std::vector<std::vector<float>> arrays;        ///< arrays[k] has components(k) × vertices values
@@ -33,8 +33,8 @@ SurfaceMesh isoSurface(const openvdb::FloatGrid& grid, double level);
 /// sign and index leaves, its quad pools and point list, the points and quads it returns) and the finished mesh's
 /// (vertices, triangles, `components` floats per vertex sampled on it, and with `polyData` VTK's copy for a .vtp
 /// file or a render). `vertices`, when given, receives the mesh's vertex count so estimated.
-std::vector<std::pair<std::string, double>> meanSurfaceBytes(const openvdb::FloatGrid& mean, double iso, int components,
-                                                             bool polyData, double* vertices = nullptr);
+std::vector<std::pair<std::string, double>> meanSurfaceBytes(const openvdb::FloatGrid& mean, double iso, int components, bool polyData,
+                                                             double* vertices = nullptr);
 
 /// What a finished mesh of `vertices` and `triangles` holds, bytes by part: its vertices (Vec3s) and triangles
 /// (3 int), `components` floats per vertex sampled on it, and with `polyData` VTK's copy of them all (a .vtp file

@@ -30,16 +30,16 @@ struct PanelLines {
 };
 
 struct RenderPanel {
-    std::string title;                       ///< drawn above the panel
-    const SurfaceMesh* surface = nullptr;    ///< drawn when set (world units)
-    std::string array;                       ///< surface array to colour by (1 component); empty: plain grey
-    std::vector<std::vector<Vec3d>> paths;   ///< polylines drawn over the surface, world units
+    std::string title;                              ///< drawn above the panel
+    const SurfaceMesh* surface = nullptr;           ///< drawn when set (world units)
+    std::string array;                              ///< surface array to colour by (1 component); empty: plain grey
+    std::vector<std::vector<Vec3d>> paths;          ///< polylines drawn over the surface, world units
     const openvdb::FloatGrid* sliceGrid = nullptr;  ///< with `slice`: drawn head-on, inactive voxels transparent
     SliceSpec slice;
-    std::vector<PanelLines> sliceLines;      ///< drawn over the slice, in order (slice panels only)
+    std::vector<PanelLines> sliceLines;  ///< drawn over the slice, in order (slice panels only)
     Colormap colormap = Colormap::Viridis;
-    bool logScale = false;                   ///< colours by log10 (needs positive values; others clamp to the lowest)
-    bool symmetric = false;                  ///< range ±max|value| (signed fields such as eigenfunctions)
+    bool logScale = false;   ///< colours by log10 (needs positive values; others clamp to the lowest)
+    bool symmetric = false;  ///< range ±max|value| (signed fields such as eigenfunctions)
     std::array<double, 2> range{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
 };
 

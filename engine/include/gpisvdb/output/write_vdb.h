@@ -67,9 +67,8 @@ void writeVdb(const openvdb::GridPtrVec& grids, const std::string& path, const o
 
 /// bandGrids (and sellingGrids when options.sellingStencils), then writeVdb. Throws Error when the band's channels
 /// were released by releaseSpilledChannels (write it with its SpilledBandGrids instead).
-void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata,
-                  const std::vector<NamedChannel>& extra = {}, const std::vector<NamedVectorChannel>& vectors = {},
-                  const VdbWriteOptions& options = {});
+void writeBandVdb(const Band& band, const std::string& path, const openvdb::MetaMap& metadata, const std::vector<NamedChannel>& extra = {},
+                  const std::vector<NamedVectorChannel>& vectors = {}, const VdbWriteOptions& options = {});
 
 /// The band's own grids (mu … stencil_width, as bandGrids makes them) written ahead of a long stage into a side
 /// file, so that the channels only those grids read — mean, stddev, T and normal, 44 B per voxel — can be freed for
@@ -105,8 +104,8 @@ void releaseSpilledChannels(Band& band);
 /// writeBandVdb for a band whose own grids were spilled: those copied from `spilled`'s side file, one at a time,
 /// then `extra`, `vectors` and (options.sellingStencils) the Selling grids from memory. Throws Error when `spilled`
 /// was written with another options.halfFloat.
-void writeBandVdb(const Band& band, const SpilledBandGrids& spilled, const std::string& path,
-                  const openvdb::MetaMap& metadata, const std::vector<NamedChannel>& extra = {},
-                  const std::vector<NamedVectorChannel>& vectors = {}, const VdbWriteOptions& options = {});
+void writeBandVdb(const Band& band, const SpilledBandGrids& spilled, const std::string& path, const openvdb::MetaMap& metadata,
+                  const std::vector<NamedChannel>& extra = {}, const std::vector<NamedVectorChannel>& vectors = {},
+                  const VdbWriteOptions& options = {});
 
 }  // namespace gpisvdb

@@ -25,7 +25,7 @@
 namespace gpisvdb {
 
 struct AggregationOptions {
-    int smoothingSteps = 2;              ///< damped-Jacobi sweeps before and after each coarse correction (≥ 1)
+    int smoothingSteps = 2;  ///< damped-Jacobi sweeps before and after each coarse correction (≥ 1)
     /// Jacobi's weight ω (0 < ω < 1): D⁻¹A of a diagonally dominant M-matrix has its eigenvalues in (0, 2], so any
     /// ω < 1 keeps the smoother convergent and the cycle positive definite; 2/3 damps the upper half best.
     double jacobiWeight = 2.0 / 3.0;
@@ -57,10 +57,10 @@ public:
 
     /// z = B r, B ≈ L⁻¹ one cycle from z = 0 (r and z of length N, not aliased).
     void apply(const float* r, float* z) const;
-    int levels() const;                 ///< levels, the finest (L itself) included
-    bool linear() const;                ///< false with the K-cycle: the PCG must use the flexible β
-    double operatorComplexity() const;  ///< Σ stored entries of the coarse levels / L's stencil entries, plus 1
-    std::size_t memoryBytes() const;    ///< bytes held: the coarse operators, aggregates, smoother and cycle vectors
+    int levels() const;                           ///< levels, the finest (L itself) included
+    bool linear() const;                          ///< false with the K-cycle: the PCG must use the flexible β
+    double operatorComplexity() const;            ///< Σ stored entries of the coarse levels / L's stencil entries, plus 1
+    std::size_t memoryBytes() const;              ///< bytes held: the coarse operators, aggregates, smoother and cycle vectors
     std::size_t coarseUnknowns(int level) const;  ///< nodes of level ≥ 1 (0 beyond the coarsest)
     /// out = A_level u for level ≥ 1 (u and out of coarseUnknowns(level)): what the tests compare with Pᵀ A P.
     void applyCoarse(int level, const float* u, float* out) const;

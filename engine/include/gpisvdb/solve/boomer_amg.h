@@ -45,8 +45,8 @@ public:
     void apply(const float* r, float* z) const;
     void apply(const double* r, double* z) const;
 
-    int levels() const;                ///< levels of the hierarchy, the finest included
-    double operatorComplexity() const; ///< Σ nonzeros of all levels' operators / nonzeros of A
+    int levels() const;                 ///< levels of the hierarchy, the finest included
+    double operatorComplexity() const;  ///< Σ nonzeros of all levels' operators / nonzeros of A
     /// Bytes held by hypre for the hierarchy (operators, interpolations, work vectors), counted from its matrices.
     std::size_t memoryBytes() const;
 

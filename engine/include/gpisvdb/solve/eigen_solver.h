@@ -6,8 +6,8 @@
 // Lanczos basis is M-orthonormal, so the eigenvectors come out with UᵀMU = I. Where the factor would not fit in
 // EigenOptions::maxBytes, LOBPCG with the multigrid preconditioner (solve/lobpcg.h) takes over (EigenMethod).
 #include <cstddef>
-#include <string>
 #include <Eigen/Core>
+#include <string>
 
 #include "gpisvdb/core/progress.h"
 #include "gpisvdb/ops/linear_operator.h"
@@ -16,9 +16,9 @@
 namespace gpisvdb {
 
 enum class EigenMethod {
-    Automatic,     ///< Lanczos on CHOLMOD's factor when it fits in maxBytes (faster where it fits), else LOBPCG
-    ShiftInvert,   ///< Lanczos on L⁻¹M through CHOLMOD's factor (refused beyond maxBytes)
-    Lobpcg,        ///< LOBPCG preconditioned by the multigrid (solve/lobpcg.h): no factor
+    Automatic,    ///< Lanczos on CHOLMOD's factor when it fits in maxBytes (faster where it fits), else LOBPCG
+    ShiftInvert,  ///< Lanczos on L⁻¹M through CHOLMOD's factor (refused beyond maxBytes)
+    Lobpcg,       ///< LOBPCG preconditioned by the multigrid (solve/lobpcg.h): no factor
 };
 
 struct EigenOptions {
@@ -28,28 +28,28 @@ struct EigenOptions {
     int maxRestarts = 1000;    ///< cap on Lanczos restarts before giving up
     double maxBytes = 0;       ///< refuse (MemoryLimitError) when the solve would need more; 0: no cap
     EigenMethod method = EigenMethod::Automatic;  ///< which solver (above)
-    LobpcgOptions lobpcg = {};  ///< the LOBPCG path's tolerance, iteration cap, guard vectors and hierarchy
+    LobpcgOptions lobpcg = {};                    ///< the LOBPCG path's tolerance, iteration cap, guard vectors and hierarchy
 };
 
 struct EigenResult {
-    Eigen::VectorXd values;     ///< λ_0 ≤ λ_1 ≤ … (k of them)
-    Eigen::MatrixXd vectors;    ///< N × k, column i = u_i, M-orthonormal, sign fixed (largest |entry| positive)
-    Eigen::VectorXd residuals;  ///< ‖L u_i − λ_i M u_i‖ / (|λ_i| ‖M u_i‖)
+    Eigen::VectorXd values;          ///< λ_0 ≤ λ_1 ≤ … (k of them)
+    Eigen::MatrixXd vectors;         ///< N × k, column i = u_i, M-orthonormal, sign fixed (largest |entry| positive)
+    Eigen::VectorXd residuals;       ///< ‖L u_i − λ_i M u_i‖ / (|λ_i| ‖M u_i‖)
     double orthonormalityError = 0;  ///< max |UᵀMU − I|
-    int subspace = 0;               ///< the Lanczos basis size used
-    long restarts = 0;              ///< Lanczos restarts
-    long solves = 0;                ///< applications of L⁻¹ (one CHOLMOD forward/back substitution each)
+    int subspace = 0;                ///< the Lanczos basis size used
+    long restarts = 0;               ///< Lanczos restarts
+    long solves = 0;                 ///< applications of L⁻¹ (one CHOLMOD forward/back substitution each)
     double factorSeconds = 0, lanczosSeconds = 0;
-    std::size_t factorBytes = 0;    ///< CHOLMOD's peak memory during the factorisation
-    double factorNonzeros = 0;      ///< entries of the Cholesky factor (the fill: 8 bytes each)
-    std::string ordering;           ///< the fill-reducing ordering CHOLMOD chose (AMD, METIS, NESDIS, ...)
-    double estimatedBytes = 0;      ///< eigenBytes as estimated before the numeric factorisation (what maxBytes bounds)
-    double matrixNonzeros = 0;      ///< stored entries of L (the caller's matrix; 12 bytes each in double)
+    std::size_t factorBytes = 0;                    ///< CHOLMOD's peak memory during the factorisation
+    double factorNonzeros = 0;                      ///< entries of the Cholesky factor (the fill: 8 bytes each)
+    std::string ordering;                           ///< the fill-reducing ordering CHOLMOD chose (AMD, METIS, NESDIS, ...)
+    double estimatedBytes = 0;                      ///< eigenBytes as estimated before the numeric factorisation (what maxBytes bounds)
+    double matrixNonzeros = 0;                      ///< stored entries of L (the caller's matrix; 12 bytes each in double)
     EigenMethod method = EigenMethod::ShiftInvert;  ///< the solver that ran (Automatic resolved)
-    long iterations = 0;            ///< LOBPCG: iterations
-    int multigridLevels = 0;        ///< LOBPCG: levels of the preconditioner's hierarchy
-    double multigridComplexity = 0; ///< LOBPCG: its operator complexity
-    double lobpcgSeconds = 0;       ///< LOBPCG: the whole solve, the multigrid's set-up included
+    long iterations = 0;                            ///< LOBPCG: iterations
+    int multigridLevels = 0;                        ///< LOBPCG: levels of the preconditioner's hierarchy
+    double multigridComplexity = 0;                 ///< LOBPCG: its operator complexity
+    double lobpcgSeconds = 0;                       ///< LOBPCG: the whole solve, the multigrid's set-up included
 };
 
 /// Bytes the solve needs beyond L and M, estimated before the numeric factorisation: 12 per entry of the

@@ -63,9 +63,8 @@ private:
 };
 
 /// One march: FastMarching(band).run(…).
-FastMarchingResult fastMarching(const Band& band, const std::vector<std::size_t>& sources,
-                                const std::vector<std::size_t>& targets = {}, const FastMarchingOptions& options = {},
-                                const Progress& progress = {});
+FastMarchingResult fastMarching(const Band& band, const std::vector<std::size_t>& sources, const std::vector<std::size_t>& targets = {},
+                                const FastMarchingOptions& options = {}, const Progress& progress = {});
 
 /// The bytes a fast march over n band voxels allocates beside the band: the reverse-stencil table (4 B per entry,
 /// `entries` of them: the stencil terms that stay in the band, ≤ 12 n; 4 B per voxel of offsets), U, the slot map

@@ -12,8 +12,8 @@
 namespace gpisvdb {
 
 struct BacktrackOptions {
-    double step = 0.25;         ///< integration step, voxels (index space)
-    std::size_t maxSteps = 0;   ///< step cap; 0: 64 × the band's bounding-box extents summed, over `step`
+    double step = 0.25;        ///< integration step, voxels (index space)
+    std::size_t maxSteps = 0;  ///< step cap; 0: 64 × the band's bounding-box extents summed, over `step`
 };
 
 struct GeodesicPath {
@@ -30,7 +30,6 @@ struct GeodesicPath {
 /// that voxel's centre. Where the interpolated flow cannot descend, it moves to the lowest-U voxel near it, so
 /// U decreases strictly at every point. Throws ParameterError when `U` does not match the band or `target` is
 /// not a band voxel.
-GeodesicPath backtrack(const Band& band, const std::vector<double>& U, std::size_t target,
-                       const BacktrackOptions& options = {});
+GeodesicPath backtrack(const Band& band, const std::vector<double>& U, std::size_t target, const BacktrackOptions& options = {});
 
 }  // namespace gpisvdb

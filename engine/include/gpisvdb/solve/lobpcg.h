@@ -23,9 +23,9 @@ namespace gpisvdb {
 struct EigenResult;
 
 struct LobpcgOptions {
-    int guard = 0;             ///< block vectors beyond k (≥ 0), which speed the k-th pair's convergence; 0: max(4, k/4)
-    double tolerance = 1e-8;   ///< ‖L u − λ M u‖ / (|λ| ‖M u‖) each of the k pairs must reach (> 0)
-    int maxIterations = 2000;  ///< cap on iterations before giving up (≥ 1)
+    int guard = 0;                    ///< block vectors beyond k (≥ 0), which speed the k-th pair's convergence; 0: max(4, k/4)
+    double tolerance = 1e-8;          ///< ‖L u − λ M u‖ / (|λ| ‖M u‖) each of the k pairs must reach (> 0)
+    int maxIterations = 2000;         ///< cap on iterations before giving up (≥ 1)
     BoomerAmgOptions multigrid = {};  ///< the preconditioner's hierarchy
 };
 
@@ -40,7 +40,7 @@ double lobpcgBytes(double n, int count, const LobpcgOptions& options);
 /// Fills values, vectors (M-orthonormal, ascending), iterations and the multigrid fields of `result`; the caller
 /// checks and reports as for the Lanczos path. Throws ParameterError for bad options, Error when the k pairs have
 /// not converged within maxIterations, Cancelled when `progress` asks.
-void lobpcg(const SparseMatrixD& L, const Eigen::VectorXd& mass, int count, const LobpcgOptions& options,
-            EigenResult& result, const Progress& progress = {});
+void lobpcg(const SparseMatrixD& L, const Eigen::VectorXd& mass, int count, const LobpcgOptions& options, EigenResult& result,
+            const Progress& progress = {});
 
 }  // namespace gpisvdb

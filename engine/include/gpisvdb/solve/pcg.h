@@ -13,8 +13,8 @@
 // computed in double (the operator's double apply: the same float weights, nothing rounded), and each outer step
 // solves the correction A d = r by the float PCG above to a loose relative tolerance (1e-5), then x += d in double.
 // Each step shrinks the residual by about that factor, so 1e-10 takes 2–3 steps: ×1.8–1.9 the iterations of a float
-// solve to 1e-6 on the bunny (docs/benchmarks.md#pcg-tolerances). Extra memory, allocated at the first refined solve and kept: 16 bytes per unknown (r in double, the
-// correction's right-hand side and solution in float), plus 8 for x in double when the caller hands it in float.
+// solve to 1e-6 on the bunny (docs/benchmarks.md#pcg-tolerances). Extra memory, allocated at the first refined solve and kept: 16 bytes per
+// unknown (r in double, the correction's right-hand side and solution in float), plus 8 for x in double when the caller hands it in float.
 #include <memory>
 #include <string>
 #include <utility>
@@ -49,8 +49,7 @@ constexpr std::size_t kMultigridMinUnknowns = 100000;
 /// The preconditioner Automatic resolves to for an operator of `unknowns` unknowns that can or cannot be assembled
 /// and is or is not the band's LaplacianOperator (the others resolve to themselves): known before the operator is
 /// built, for memory estimates.
-Preconditioner resolvePreconditioner(Preconditioner requested, std::size_t unknowns, bool assemblable,
-                                     bool bandLaplacian = false);
+Preconditioner resolvePreconditioner(Preconditioner requested, std::size_t unknowns, bool assemblable, bool bandLaplacian = false);
 /// The same for this operator.
 Preconditioner resolvePreconditioner(Preconditioner requested, const SymmetricOperator& A);
 
@@ -68,29 +67,29 @@ enum class Refinement {
 };
 
 struct PcgOptions {
-    double tolerance = 1e-6;     ///< relative residual ‖b − A x‖ / ‖b‖ to reach (≥ kMinPcgTolerance = 1e-12)
-    int maxIterations = 10000;   ///< cap on all PCG iterations of a solve, the refinement's inner ones included (≥ 1)
+    double tolerance = 1e-6;    ///< relative residual ‖b − A x‖ / ‖b‖ to reach (≥ kMinPcgTolerance = 1e-12)
+    int maxIterations = 10000;  ///< cap on all PCG iterations of a solve, the refinement's inner ones included (≥ 1)
     Preconditioner preconditioner = Preconditioner::Automatic;  ///< measured choice (docs/operators.md#multigrid)
-    Refinement refinement = Refinement::Automatic;  ///< when to refine in double (above)
-    BoomerAmgOptions multigrid = {};  ///< the hierarchy, when preconditioner is Multigrid
-    AggregationOptions aggregation = {};  ///< the hierarchy, when preconditioner is Aggregation
+    Refinement refinement = Refinement::Automatic;              ///< when to refine in double (above)
+    BoomerAmgOptions multigrid = {};                            ///< the hierarchy, when preconditioner is Multigrid
+    AggregationOptions aggregation = {};                        ///< the hierarchy, when preconditioner is Aggregation
 };
 
 struct PcgResult {
-    int iterations = 0;           ///< all PCG iterations (float), the refinement's inner ones included
+    int iterations = 0;  ///< all PCG iterations (float), the refinement's inner ones included
     /// True relative residual ‖b − A x‖ / ‖b‖ at exit (reductions in double). Plain float PCG: of the float x, with
     /// the float apply. Refined: of the solution in double, with the double apply.
     double relativeResidual = 0;
-    int restarts = 0;             ///< restarts from the true residual (the inner solves' included)
-    int refinements = 0;          ///< outer steps of iterative refinement (0: the float PCG alone)
-    int innerIterations = 0;      ///< PCG iterations spent in the refinement's inner solves (≤ iterations)
+    int restarts = 0;         ///< restarts from the true residual (the inner solves' included)
+    int refinements = 0;      ///< outer steps of iterative refinement (0: the float PCG alone)
+    int innerIterations = 0;  ///< PCG iterations spent in the refinement's inner solves (≤ iterations)
     /// ‖b − A x̃‖ / ‖b‖ in double for x̃ the solution rounded to float (what a float grid holds): float's rounding
     /// of x alone leaves ≈ 1e-8 … 1e-6 here when refined. Equal to relativeResidual on the plain float path.
     double floatResidual = 0;
-    bool converged = false;       ///< relativeResidual ≤ tolerance
+    bool converged = false;                                  ///< relativeResidual ≤ tolerance
     Preconditioner preconditioner = Preconditioner::Jacobi;  ///< the one used (Automatic resolved)
-    int multigridLevels = 0;            ///< Multigrid, Aggregation: levels of the hierarchy (0 otherwise)
-    double multigridComplexity = 0;     ///< Multigrid, Aggregation: Σ entries of all levels / entries of A (0 otherwise)
+    int multigridLevels = 0;                                 ///< Multigrid, Aggregation: levels of the hierarchy (0 otherwise)
+    double multigridComplexity = 0;  ///< Multigrid, Aggregation: Σ entries of all levels / entries of A (0 otherwise)
 };
 
 /// "Jacobi", "incomplete Cholesky", "multigrid", "aggregation" or "automatic" (for reports and messages).
@@ -131,14 +130,14 @@ private:
 };
 
 /// One solve: PcgSolver(A, options).solve(b, x, progress).
-PcgResult solvePcg(const SymmetricOperator& A, const std::vector<float>& b, std::vector<float>& x,
-                   const PcgOptions& options = {}, const Progress& progress = {});
+PcgResult solvePcg(const SymmetricOperator& A, const std::vector<float>& b, std::vector<float>& x, const PcgOptions& options = {},
+                   const Progress& progress = {});
 /// One solve in double: PcgSolver(A, options).solve(b, x, progress).
-PcgResult solvePcg(const SymmetricOperator& A, const std::vector<double>& b, std::vector<double>& x,
-                   const PcgOptions& options = {}, const Progress& progress = {});
+PcgResult solvePcg(const SymmetricOperator& A, const std::vector<double>& b, std::vector<double>& x, const PcgOptions& options = {},
+                   const Progress& progress = {});
 /// Same, on an assembled matrix.
-PcgResult solvePcg(const SparseMatrixF& A, const std::vector<float>& b, std::vector<float>& x,
-                   const PcgOptions& options = {}, const Progress& progress = {});
+PcgResult solvePcg(const SparseMatrixF& A, const std::vector<float>& b, std::vector<float>& x, const PcgOptions& options = {},
+                   const Progress& progress = {});
 
 /// Bytes a PcgSolver allocates for n unknowns with these options, Jacobi preconditioned: r, z, p,
 /// A p and the inverse diagonal in float (20 B per unknown), plus the refinement's residual in double, its inner

@@ -26,16 +26,16 @@ struct ResolutionOptions {
 };
 
 struct Resolution {
-    double hStar = 0;        ///< Eq. 25 with λ_res = c·ℓ, world units
-    double muWidth = 0;      ///< w_μ, world units (not scaled by c)
-    double h = 0;            ///< the default voxel size min(h*, c·kMuWidthFactor·w_μ), world units
-    int maxStencilL1 = 0;    ///< max_i w(p_i)
+    double hStar = 0;      ///< Eq. 25 with λ_res = c·ℓ, world units
+    double muWidth = 0;    ///< w_μ, world units (not scaled by c)
+    double h = 0;          ///< the default voxel size min(h*, c·kMuWidthFactor·w_μ), world units
+    int maxStencilL1 = 0;  ///< max_i w(p_i)
     /// The band's expected cross-section, Σ_i a_i·t_i (world units³; a_i the samples' areas ‖w_i‖): t_i the width
     /// across the surface where μ > η at sample i, 2 w_i √(2 ln(μ̂_i / η)), with w_i = √c₀₀/‖∇γ‖ at the sample, μ̂_i
     /// the peak of μ along its normal (μ at the sample raised by its offset (γ − u)/‖∇γ‖ from the mean surface) and
     /// η = etaRelative × the median μ at the samples. The band holds about (bandVolume + area·h)/h³ voxels.
     double bandVolume = 0;
-    double area = 0;         ///< Σ_i a_i, world units²
+    double area = 0;  ///< Σ_i a_i, world units²
 };
 
 Resolution chooseResolution(const GpisModel& model, const Samples& samples, const ResolutionOptions& options = {},

@@ -10,16 +10,16 @@
 namespace gpisvdb {
 
 struct SellingOptions {
-    int maxFlips = 100000;        ///< cap on superbase flips (termination guard; reached only for degenerate T)
-    double dropRelative = 1e3;    ///< weights below dropRelative·ε·tr T are dropped (ε: double precision)
+    int maxFlips = 100000;      ///< cap on superbase flips (termination guard; reached only for degenerate T)
+    double dropRelative = 1e3;  ///< weights below dropRelative·ε·tr T are dropped (ε: double precision)
 };
 
 struct Selling3 {
-    int count = 0;                                   ///< terms kept (≤ 6)
-    std::array<double, 6> weight{};                  ///< λ_k ≥ 0
-    std::array<Eigen::Vector3i, 6> offset{};         ///< e_k ∈ Z³
-    int flips = 0;                                   ///< superbase flips performed
-    bool capped = false;                             ///< true if maxFlips was reached (weights clamped at 0)
+    int count = 0;                            ///< terms kept (≤ 6)
+    std::array<double, 6> weight{};           ///< λ_k ≥ 0
+    std::array<Eigen::Vector3i, 6> offset{};  ///< e_k ∈ Z³
+    int flips = 0;                            ///< superbase flips performed
+    bool capped = false;                      ///< true if maxFlips was reached (weights clamped at 0)
     /// Stencil width max_k ‖e_k‖₁ (0 for T = 0).
     int width() const;
     /// Σ λ_k e_k e_kᵀ.

@@ -26,25 +26,23 @@ struct CollisionOptions {
 };
 
 struct CollisionResult {
-    double probability = 0;     ///< the fraction of draws in which the mesh meets the inside
-    double standardError = 0;   ///< √(p (1 − p) / n)
-    std::size_t points = 0;     ///< points sampled on the mesh
-    double largestInside = 0;   ///< the largest P(φ > u) over those points, one point at a time (a lower bound on p)
+    double probability = 0;    ///< the fraction of draws in which the mesh meets the inside
+    double standardError = 0;  ///< √(p (1 − p) / n)
+    std::size_t points = 0;    ///< points sampled on the mesh
+    double largestInside = 0;  ///< the largest P(φ > u) over those points, one point at a time (a lower bound on p)
 };
 
 /// Points on a triangle mesh: its vertices, and the points of a lattice of spacing ≤ step on each triangle (its
 /// edges included). Throws ParameterError on a step ≤ 0 or more than 1e8 points.
-std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                                    double step);
+std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles, double step);
 /// An upper bound on meshSamplePoints' size (it counts the three corners of each triangle's lattice, which are the
 /// vertices), without making the points; the same errors.
-std::size_t meshSamplePointCount(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                                 double step);
+std::size_t meshSamplePointCount(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles, double step);
 
 /// P(the mesh meets {φ > u}): γ from `model` (the winding model of `samples`), J ε of each draw from the samples'
 /// tree (smoothing s, world units). Throws ParameterError on bad options, InputError on an empty mesh.
-CollisionResult collisionProbability(const GpisModel& model, const Samples& samples, double s,
-                                     const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles,
-                                     const CollisionOptions& options, const Progress& progress = {});
+CollisionResult collisionProbability(const GpisModel& model, const Samples& samples, double s, const std::vector<Vec3d>& vertices,
+                                     const std::vector<std::array<int, 3>>& triangles, const CollisionOptions& options,
+                                     const Progress& progress = {});
 
 }  // namespace gpisvdb

@@ -25,17 +25,16 @@ struct GeodesicOptions {
 };
 
 struct GeodesicResult {
-    FastMarchingResult march;               ///< U by linear index (+∞ where not reached)
-    std::vector<std::size_t> sourceIndex;   ///< band voxel nearest each source point
-    std::vector<std::size_t> targetIndex;   ///< band voxel nearest each target point
-    std::vector<GeodesicPath> paths;        ///< one per target, target → source
+    FastMarchingResult march;              ///< U by linear index (+∞ where not reached)
+    std::vector<std::size_t> sourceIndex;  ///< band voxel nearest each source point
+    std::vector<std::size_t> targetIndex;  ///< band voxel nearest each target point
+    std::vector<GeodesicPath> paths;       ///< one per target, target → source
 };
 
 /// Sources and targets are world-space points, snapped to the nearest band voxel. Throws ParameterError without
 /// a source, on a non-finite point, on more than kMaxGeodesicPoints sources or targets, or when the march would
 /// need more than options.maxBytes — all before any work.
-GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sources,
-                                const std::vector<Vec3d>& targets = {}, const GeodesicOptions& options = {},
-                                const Progress& progress = {});
+GeodesicResult geodesicDistance(const Band& band, const std::vector<Vec3d>& sources, const std::vector<Vec3d>& targets = {},
+                                const GeodesicOptions& options = {}, const Progress& progress = {});
 
 }  // namespace gpisvdb

@@ -12,8 +12,8 @@
 namespace gpisvdb {
 
 struct GreenResult {
-    std::vector<float> values;   ///< G(·, y) by linear index (rounded to float when the solve refined in double)
-    std::size_t sourceIndex = 0; ///< y's linear index
+    std::vector<float> values;    ///< G(·, y) by linear index (rounded to float when the solve refined in double)
+    std::size_t sourceIndex = 0;  ///< y's linear index
     /// The solve. Below float's reach the PCG refines in double (solve/pcg.h): solver.relativeResidual is then that
     /// of the double solution, solver.floatResidual that of `values`.
     PcgResult solver;
@@ -24,7 +24,7 @@ std::size_t nearestBandVoxel(const Band& band, const Vec3d& point);
 
 /// Solves L f = e_y with the PCG; `L` is the band's Laplacian (LaplacianOperator, or AssembledOperator over
 /// assembleLaplacian for the incomplete Cholesky preconditioner).
-GreenResult greensFunction(const Band& band, const SymmetricOperator& L, const Vec3d& source,
-                           const PcgOptions& options = {}, const Progress& progress = {});
+GreenResult greensFunction(const Band& band, const SymmetricOperator& L, const Vec3d& source, const PcgOptions& options = {},
+                           const Progress& progress = {});
 
 }  // namespace gpisvdb

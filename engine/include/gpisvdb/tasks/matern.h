@@ -8,10 +8,10 @@
 // ∫ k(x, x) dμ / A = a. d is the dimension of the surface the kernel lives on (2), as in Borovitskiy et al.
 // Because T vanishes across the surface and μ weighs L², the u_i — and so the prior variance k(x, x) — are
 // larger where μ is small: where the shape itself is uncertain.
+#include <Eigen/Core>
 #include <string>
 #include <utility>
 #include <vector>
-#include <Eigen/Core>
 
 #include "gpisvdb/band/band.h"
 #include "gpisvdb/core/progress.h"
@@ -21,10 +21,10 @@
 namespace gpisvdb {
 
 struct MaternOptions {
-    double nu = 1.5;         ///< smoothness ν > 0 (1/2, 3/2, 5/2 usual); +infinity gives the squared-exponential ρ_∞
-    double kappa = 0;        ///< κ, length scale in world units (> 0); 0: 0.1 √A (a tenth of the shape's size)
-    double dimension = 2;    ///< d in ρ_ν: the dimension of the surface
-    double amplitude = 1;    ///< a, the mean prior variance (data units²)
+    double nu = 1.5;       ///< smoothness ν > 0 (1/2, 3/2, 5/2 usual); +infinity gives the squared-exponential ρ_∞
+    double kappa = 0;      ///< κ, length scale in world units (> 0); 0: 0.1 √A (a tenth of the shape's size)
+    double dimension = 2;  ///< d in ρ_ν: the dimension of the surface
+    double amplitude = 1;  ///< a, the mean prior variance (data units²)
 };
 
 /// κ's default for a band of expected area A = Σ M: 0.1 √A.
@@ -49,13 +49,13 @@ struct RegressionOptions {
 };
 
 struct RegressionResult {
-    std::vector<float> mean;       ///< posterior mean per band voxel
-    std::vector<float> variance;   ///< posterior variance per band voxel (≥ 0)
-    Eigen::VectorXd meanAtData;    ///< posterior mean and variance at the data points (interpolated like the data)
+    std::vector<float> mean;      ///< posterior mean per band voxel
+    std::vector<float> variance;  ///< posterior variance per band voxel (≥ 0)
+    Eigen::VectorXd meanAtData;   ///< posterior mean and variance at the data points (interpolated like the data)
     Eigen::VectorXd varianceAtData;
-    double priorMean = 0;          ///< the constant prior mean: the mean of the data values
+    double priorMean = 0;             ///< the constant prior mean: the mean of the data values
     double amplitude = 0, kappa = 0;  ///< the a and κ used
-    bool weightSpace = false;      ///< which exact solve ran: k × k weight space, or m × m function space
+    bool weightSpace = false;         ///< which exact solve ran: k × k weight space, or m × m function space
 };
 
 /// What gpRegression allocates at its peak beside the eigenpairs, for a band of `voxels`, `data` and `k` eigenpairs,
@@ -71,7 +71,7 @@ std::vector<std::pair<std::string, double>> regressionBytes(std::size_t voxels, 
 /// variances from data.noise (0: exact data, interpolated). Function space (m × m Cholesky) when some noise is
 /// 0 or m ≤ k, weight space (k × k) otherwise; both exact. Throws ParameterError for empty data, points off the
 /// band, or more than 20 000 exact (noise-free) points.
-RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const PointData& data,
-                              const RegressionOptions& options = {}, const Progress& progress = {});
+RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const PointData& data, const RegressionOptions& options = {},
+                              const Progress& progress = {});
 
 }  // namespace gpisvdb

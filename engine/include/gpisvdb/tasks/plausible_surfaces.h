@@ -23,12 +23,12 @@
 namespace gpisvdb {
 
 struct SurfaceDrawOptions {
-    int count = 8;               ///< draws n (1 … 10 000)
-    std::uint64_t seed = 1;      ///< draw k's noise is a function of (seed, k, sample index) alone
-    int firstDraw = 0;           ///< index of the first draw: draws firstDraw … firstDraw + count − 1 (≥ 0)
-    double openingRatio = 6.0;   ///< β (> 1): a node stands in for its samples beyond β × its radius (accuracy:
-                                 ///< docs/uncertainty.md#plausible-surfaces)
-    int leafSize = 16;           ///< most samples in a leaf (≥ 1)
+    int count = 8;              ///< draws n (1 … 10 000)
+    std::uint64_t seed = 1;     ///< draw k's noise is a function of (seed, k, sample index) alone
+    int firstDraw = 0;          ///< index of the first draw: draws firstDraw … firstDraw + count − 1 (≥ 0)
+    double openingRatio = 6.0;  ///< β (> 1): a node stands in for its samples beyond β × its radius (accuracy:
+                                ///< docs/uncertainty.md#plausible-surfaces)
+    int leafSize = 16;          ///< most samples in a leaf (≥ 1)
 };
 
 /// The perturbation J ε of each draw at any point, over a tree built once (the draws' noise is drawn then).
@@ -50,8 +50,7 @@ public:
     std::vector<std::vector<float>> onBand(const Band& band, const Progress& progress = {}) const;
     /// The same at the listed voxels only (linear indices into the band): values[k][j] for voxel voxels[j], equal to
     /// the whole band's values there (a section's lines need a slice of the band, not all of it).
-    std::vector<std::vector<float>> onBand(const Band& band, const std::vector<std::size_t>& voxels,
-                                           const Progress& progress = {}) const;
+    std::vector<std::vector<float>> onBand(const Band& band, const std::vector<std::size_t>& voxels, const Progress& progress = {}) const;
 
     /// Bytes the draws hold beyond the samples: the noise (2 × 3 floats per sample and draw) and the tree's
     /// nodes (12 doubles per node and draw, at most 4 n / leafSize nodes), for n samples.
@@ -59,8 +58,7 @@ public:
 
 private:
     template <class VoxelOf>
-    std::vector<std::vector<float>> onVoxels(const Band& band, std::size_t count, VoxelOf voxelOf,
-                                             const Progress& progress) const;
+    std::vector<std::vector<float>> onVoxels(const Band& band, std::size_t count, VoxelOf voxelOf, const Progress& progress) const;
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

@@ -28,8 +28,8 @@ struct Ray {
 };
 
 struct RayQueryOptions {
-    double iso = 0.5;   ///< u: the surface φ = u, inside where φ > u (the model's naturalIso())
-    double step = 0;    ///< Δ, world units (> 0): the spacing of the points evaluated along each ray
+    double iso = 0.5;  ///< u: the surface φ = u, inside where φ > u (the model's naturalIso())
+    double step = 0;   ///< Δ, world units (> 0): the spacing of the points evaluated along each ray
 };
 
 struct RayHit {

@@ -15,9 +15,9 @@
 // when ε = (1 − q) / (2 − q), q = e^{−α · tolerance}. Far from the band whole subtrees collapse into one term.
 #include <cstddef>
 #include <memory>
+#include <openvdb/openvdb.h>
 #include <string>
 #include <utility>
-#include <openvdb/openvdb.h>
 #include <vector>
 
 #include "gpisvdb/band/band.h"
@@ -46,13 +46,13 @@ private:
 };
 
 struct SmoothedDistanceOptions {
-    double alpha = 0;           ///< α, world units⁻¹ (> 0); larger is sharper (d_α → distance to the band as α → ∞)
-    double gridVoxelSize = 0;   ///< H, world units (0: the padded box's longest side / 128)
-    double padding = -1;        ///< margin around the band's box, world units (< 0: 10 % of its longest side)
-    double tolerance = 0;       ///< bound on |d − d_exact| per point, world units (0: H / 100)
-    bool bruteForce = false;    ///< exact sums over all voxels instead of the tree (the measured baseline)
-    double maxBytes = 0;        ///< refuse a grid whose peak (smoothedDistanceBytes, no level-set copy) exceeds
-                                ///< this, bytes (0: no limit); grids of more than 2^31 points are refused whatever it is
+    double alpha = 0;          ///< α, world units⁻¹ (> 0); larger is sharper (d_α → distance to the band as α → ∞)
+    double gridVoxelSize = 0;  ///< H, world units (0: the padded box's longest side / 128)
+    double padding = -1;       ///< margin around the band's box, world units (< 0: 10 % of its longest side)
+    double tolerance = 0;      ///< bound on |d − d_exact| per point, world units (0: H / 100)
+    bool bruteForce = false;   ///< exact sums over all voxels instead of the tree (the measured baseline)
+    double maxBytes = 0;       ///< refuse a grid whose peak (smoothedDistanceBytes, no level-set copy) exceeds
+                               ///< this, bytes (0: no limit); grids of more than 2^31 points are refused whatever it is
 };
 
 struct SmoothedDistanceResult {
@@ -64,7 +64,7 @@ struct SmoothedDistanceResult {
                                    ///< computed value and an outside point never reads as near the surface
     double tolerance = 0;          ///< the bound as used (0 for brute force)
     std::size_t points = 0;
-    double meanTerms = 0;          ///< summed terms per point (N for brute force)
+    double meanTerms = 0;  ///< summed terms per point (N for brute force)
 };
 
 /// The grid smoothedDistanceGrid makes for a band and options: grid point k sits at H·(first + k) (world units).
@@ -81,18 +81,15 @@ DistanceGridShape smoothedDistanceGridShape(const Band& band, const SmoothedDist
 /// (docs/memory.md#distance): the larger of the k-d tree's build (the tree, 32 B per voxel and its nodes, with the
 /// top level's sorted copies, 36 B per voxel) and the evaluation (the tree, a float per grid point, the dense
 /// OpenVDB grid's leaves and internal nodes); with `levelCopy`, also the command's copy of the grid beside it.
-std::vector<std::pair<std::string, double>> smoothedDistanceBytes(const Band& band, const SmoothedDistanceOptions& options,
-                                                                  bool levelCopy);
+std::vector<std::pair<std::string, double>> smoothedDistanceBytes(const Band& band, const SmoothedDistanceOptions& options, bool levelCopy);
 
 /// The smallest grid voxel size at which smoothedDistanceBytes(band, options, levelCopy) sums to at most `bytes`,
 /// from options' own H up in steps of 2 % (the grid's leaves and nodes do not shrink as H⁻³, so no closed form
 /// names it); 0 when none does: the k-d tree over the band's voxels alone is larger.
-double smoothedDistanceGridVoxelSizeWithin(const Band& band, const SmoothedDistanceOptions& options, bool levelCopy,
-                                           double bytes);
+double smoothedDistanceGridVoxelSizeWithin(const Band& band, const SmoothedDistanceOptions& options, bool levelCopy, double bytes);
 
 /// d_α on a grid covering the band's box plus padding; grid point k sits at H·k (world units). Parallel over
 /// points; the result does not depend on the thread count.
-SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDistanceOptions& options,
-                                            const Progress& progress = {});
+SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDistanceOptions& options, const Progress& progress = {});
 
 }  // namespace gpisvdb

@@ -14,15 +14,15 @@
 namespace gpisvdb::mpi {
 
 struct DistributedBand {
-    Band local;                        ///< this rank's voxels, in linear order
-    std::size_t offset = 0;            ///< linear index of local voxel 0 in the whole band
-    std::size_t globalSize = 0;        ///< voxels of the whole band
-    std::vector<std::size_t> counts;   ///< voxels per rank (after balancing)
-    TreePartition partition;           ///< which rank holds which range (after balancing)
-    BandStats stats;                   ///< the whole band's; seconds are the slowest rank's
-    std::vector<std::size_t> searchVoxels;  ///< band voxels per rank while searching (the partition from the samples)
+    Band local;                                ///< this rank's voxels, in linear order
+    std::size_t offset = 0;                    ///< linear index of local voxel 0 in the whole band
+    std::size_t globalSize = 0;                ///< voxels of the whole band
+    std::vector<std::size_t> counts;           ///< voxels per rank (after balancing)
+    TreePartition partition;                   ///< which rank holds which range (after balancing)
+    BandStats stats;                           ///< the whole band's; seconds are the slowest rank's
+    std::vector<std::size_t> searchVoxels;     ///< band voxels per rank while searching (the partition from the samples)
     std::vector<std::size_t> searchEvaluated;  ///< voxels each rank evaluated while searching
-    double balanceSeconds = 0;         ///< moving the found voxels to their final rank
+    double balanceSeconds = 0;                 ///< moving the found voxels to their final rank
 };
 
 /// The partition the search starts from: the samples' leaves weighted by their vector areas ‖w_i‖ (the band's
@@ -30,8 +30,8 @@ struct DistributedBand {
 TreePartition samplePartition(const Ranks& ranks, const Samples& samples, double voxelSize);
 
 /// buildBand across the ranks (same options, same result). Collective; errors are agreed (together()).
-DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model, const Samples& samples,
-                                     const BandOptions& options, const Progress& progress = {});
+DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model, const Samples& samples, const BandOptions& options,
+                                     const Progress& progress = {});
 
 /// The whole band on rank 0 (its index tree rebuilt; channels gathered); an empty band elsewhere. Collective.
 Band gatherBand(const Ranks& ranks, const DistributedBand& band);

@@ -15,13 +15,13 @@ namespace gpisvdb::mpi {
 std::size_t nearestBandVoxel(const Ranks& ranks, const DistributedBand& band, const Vec3d& point);
 
 struct DistributedGreen {
-    std::vector<float> local;      ///< G(·, y) on this rank's voxels (local index)
-    std::size_t sourceIndex = 0;   ///< y's linear index in the whole band
+    std::vector<float> local;                                ///< G(·, y) on this rank's voxels (local index)
+    std::size_t sourceIndex = 0;                             ///< y's linear index in the whole band
     Preconditioner preconditioner = Preconditioner::Jacobi;  ///< as used (Multigrid or Jacobi)
     int iterations = 0;
-    double relativeResidual = 0;   ///< ‖e_y − L f‖ / ‖e_y‖, recomputed from f in double
+    double relativeResidual = 0;  ///< ‖e_y − L f‖ / ‖e_y‖, recomputed from f in double
     bool converged = false;
-    std::size_t ghosts = 0;        ///< this rank's halo: other ranks' unknowns each product reads
+    std::size_t ghosts = 0;  ///< this rank's halo: other ranks' unknowns each product reads
     double assembleSeconds = 0, setupSeconds = 0, solveSeconds = 0;
 };
 
@@ -29,7 +29,7 @@ struct DistributedGreen {
 /// Automatic picks the multigrid from kMultigridMinUnknowns voxels of the whole band, Jacobi below; the incomplete
 /// Cholesky has no distributed form and is refused (ParameterError). PETSc's options database (PETSC_OPTIONS) can
 /// override the solver's settings (prefix green_). Collective.
-DistributedGreen greensFunctionPetsc(const Ranks& ranks, const DistributedBand& band, const Vec3d& source,
-                                     const PcgOptions& options = {}, const Progress& progress = {});
+DistributedGreen greensFunctionPetsc(const Ranks& ranks, const DistributedBand& band, const Vec3d& source, const PcgOptions& options = {},
+                                     const Progress& progress = {});
 
 }  // namespace gpisvdb::mpi

@@ -17,8 +17,8 @@ struct Ranks {
     explicit Ranks(MPI_Comm comm = MPI_COMM_WORLD);
     MPI_Comm comm;
     int rank = 0, size = 1;
-    mutable double bytesSent = 0;         ///< bytes this rank sent to other ranks through allToAll() and gathers
-    mutable double secondsExchanging = 0; ///< wall-clock seconds in those calls (waiting for slower ranks included)
+    mutable double bytesSent = 0;          ///< bytes this rank sent to other ranks through allToAll() and gathers
+    mutable double secondsExchanging = 0;  ///< wall-clock seconds in those calls (waiting for slower ranks included)
 };
 
 /// Runs `work` on this rank, then agrees with every other rank on whether all succeeded (one allreduce). If any
@@ -52,8 +52,8 @@ std::vector<T> allGather(const Ranks& ranks, const std::vector<T>& mine, std::ve
     for (int r = 1; r < ranks.size; ++r) displ[std::size_t(r)] = displ[std::size_t(r - 1)] + n[std::size_t(r - 1)];
     std::vector<T> all(std::size_t(displ.back() + n.back()));
     detail::timed(ranks, double(sizeof(T)) * double(mine.size()) * double(ranks.size - 1), [&] {
-        MPI_Allgatherv(mine.data(), own, detail::bytesType(sizeof(T)), all.data(), n.data(), displ.data(),
-                       detail::bytesType(sizeof(T)), ranks.comm);
+        MPI_Allgatherv(mine.data(), own, detail::bytesType(sizeof(T)), all.data(), n.data(), displ.data(), detail::bytesType(sizeof(T)),
+                       ranks.comm);
     });
     if (counts) *counts = n;
     return all;
@@ -69,8 +69,8 @@ std::vector<T> gatherToRoot(const Ranks& ranks, const std::vector<T>& mine) {
     for (int r = 1; r < ranks.size; ++r) displ[std::size_t(r)] = displ[std::size_t(r - 1)] + n[std::size_t(r - 1)];
     std::vector<T> all(ranks.rank == 0 ? std::size_t(displ.back() + n.back()) : 0);
     detail::timed(ranks, ranks.rank == 0 ? 0.0 : double(sizeof(T)) * double(mine.size()), [&] {
-        MPI_Gatherv(mine.data(), own, detail::bytesType(sizeof(T)), all.data(), n.data(), displ.data(),
-                    detail::bytesType(sizeof(T)), 0, ranks.comm);
+        MPI_Gatherv(mine.data(), own, detail::bytesType(sizeof(T)), all.data(), n.data(), displ.data(), detail::bytesType(sizeof(T)), 0,
+                    ranks.comm);
     });
     return all;
 }
@@ -94,8 +94,8 @@ std::vector<T> allToAll(const Ranks& ranks, const std::vector<std::vector<T>>& t
     for (std::size_t r = 1; r < P; ++r) recvDispl[r] = recvDispl[r - 1] + recvCount[r - 1];
     std::vector<T> received(std::size_t(recvDispl.back() + recvCount.back()));
     detail::timed(ranks, remote, [&] {
-        MPI_Alltoallv(send.data(), sendCount.data(), sendDispl.data(), detail::bytesType(sizeof(T)), received.data(),
-                      recvCount.data(), recvDispl.data(), detail::bytesType(sizeof(T)), ranks.comm);
+        MPI_Alltoallv(send.data(), sendCount.data(), sendDispl.data(), detail::bytesType(sizeof(T)), received.data(), recvCount.data(),
+                      recvDispl.data(), detail::bytesType(sizeof(T)), ranks.comm);
     });
     if (from) *from = recvCount;
     return received;

@@ -19,13 +19,13 @@ namespace gpisvdb::mpi {
 constexpr std::size_t kFactorMaxVoxels = 1000000;
 
 struct DistributedSpectrum {
-    Eigen::VectorXd values;              ///< λ_0 ≤ λ_1 ≤ … (k of them), world units⁻²
-    std::vector<std::vector<double>> local;  ///< eigenvector i on this rank's voxels (local index)
-    Eigen::VectorXd residuals;           ///< ‖L u_i − λ_i M u_i‖ / (|λ_i| ‖M u_i‖), in double
-    double orthonormalityError = 0;      ///< max |UᵀMU − I|, in double
+    Eigen::VectorXd values;                         ///< λ_0 ≤ λ_1 ≤ … (k of them), world units⁻²
+    std::vector<std::vector<double>> local;         ///< eigenvector i on this rank's voxels (local index)
+    Eigen::VectorXd residuals;                      ///< ‖L u_i − λ_i M u_i‖ / (|λ_i| ‖M u_i‖), in double
+    double orthonormalityError = 0;                 ///< max |UᵀMU − I|, in double
     EigenMethod method = EigenMethod::ShiftInvert;  ///< ShiftInvert (Krylov–Schur on MUMPS) or Lobpcg
-    int iterations = 0;                  ///< SLEPc's outer iterations (restarts for Krylov–Schur)
-    std::size_t ghosts = 0;              ///< this rank's halo of L
+    int iterations = 0;                             ///< SLEPc's outer iterations (restarts for Krylov–Schur)
+    std::size_t ghosts = 0;                         ///< this rank's halo of L
     double assembleSeconds = 0, solveSeconds = 0;
 };
 
