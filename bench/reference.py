@@ -11,7 +11,12 @@ showcase's defaults. gpisvdb runs the same input twice:
 Stages: the band with μ and T, the operators, the Green's function, the geodesic distance and 10 eigenpairs; the
 reference's and ours alternated, `--repeat` times; medians. Writes bench/results/reference.json.
 
+With --agreement-only: μ, T and the field at its voxels against ours; with --joins also the Green's function and
+the geodesic distance on its lattice (docs/reference.md#joins; reads our grids with Debian's pyopenvdb, so run it
+with /usr/bin/python3).
+
 Usage: python3 bench/reference.py --gpgp PATH [--inputs spot_low_variance,...] [--repeat 1] [--no-eigen]
+                                  [--agreement-only [--joins]] [--work DIR] [--out FILE]
 """
 import argparse, json, os, re, statistics, subprocess, sys, tempfile, time
 
@@ -22,6 +27,9 @@ ap.add_argument("--repeat", type=int, default=1)
 ap.add_argument("--no-eigen", action="store_true", help="leave out the 10 eigenpairs (GPGP takes minutes)")
 ap.add_argument("--agreement-only", action="store_true",
                 help="only the voxel-by-voxel agreement (one reference run without eigenpairs, no timings)")
+ap.add_argument("--joins", action="store_true",
+                help="with --agreement-only: also the Green's function and the geodesic distance voxel by voxel, ours "
+                     "on the reference's lattice (the input shifted so that its voxel centres are ours); needs pyopenvdb")
 ap.add_argument("--exe", default="build/bin/gpisvdb")
 ap.add_argument("--work", default="build/reference", help="where the reference's copy and build go")
 ap.add_argument("--gpgp-args", default="", help="more arguments for the reference's driver, e.g. '--beta 100'")
@@ -120,9 +128,73 @@ def agreement(gdp, voxels_csv, flags, tmp):
             "ours_sum_mu_over_reference_voxels": sum(o["mu"]) / sum(g["mu"])}
 
 
+def shifted_gdp(gdp, offset, path):
+    """The .gdp with every dipole's position less `offset` (normals and covariances unchanged): a translation, so
+    that the reference's voxel centres o + h k fall on ours, h k."""
+    tokens = open(gdp).read().split()
+    n = int(tokens[1])
+    for i in range(n):
+        for d in range(3):
+            k = 2 + 42 * i + d
+            tokens[k] = repr(float(tokens[k]) - offset[d])
+    with open(path, "w") as f:
+        f.write(tokens[0] + " " + tokens[1] + "\n")
+        for i in range(n):
+            f.write(" ".join(tokens[2 + 42 * i: 2 + 42 * (i + 1)]) + "\n")
+
+
+def grid_values(vdb, name):
+    """{(i, j, k): value} of a float grid's active voxels (Debian's pyopenvdb)."""
+    import pyopenvdb
+    grid = pyopenvdb.read(vdb, name)
+    return {tuple(item.min): item.value for item in grid.citerOnValues() if item.count == 1}
+
+
+def fit(ours, theirs):
+    """theirs ≈ a·ours (least squares through 0) and ≈ a·ours + b, with the affine fit's residuals over the
+    reference's range: how far two fields are from differing by their units alone."""
+    n = len(ours)
+    scale = sum(x * y for x, y in zip(ours, theirs)) / sum(x * x for x in ours)
+    mo, mt = sum(ours) / n, sum(theirs) / n
+    a = sum((x - mo) * (y - mt) for x, y in zip(ours, theirs)) / sum((x - mo) ** 2 for x in ours)
+    b = mt - a * mo
+    spread = max(theirs) - min(theirs)
+    res = sorted(abs(a * x + b - y) / spread for x, y in zip(ours, theirs))
+    return {"scale_through_zero": scale, "affine": [a, b], "median_residual_over_range": res[n // 2],
+            "p99_residual_over_range": res[min(n - 1, int(0.99 * n))], "max_residual_over_range": res[-1]}
+
+
+def joins(gdp, first, base, tmp):
+    """Our Green's function and geodesic distance from GPGP's source voxel, on GPGP's lattice, joined voxel by voxel
+    with its own (columns green and distance of its dump)."""
+    g = read_csv(os.path.join(tmp, "gpgp_voxels.csv"))
+    h = first["dx"]
+    offset = [g[c][0] - h * round(g[c][0] / h) for c in "xyz"]
+    keys = [tuple(int(round((g[c][i] - offset[d]) / h)) for d, c in enumerate("xyz")) for i in range(len(g["x"]))]
+    off_lattice = max(abs((g[c][i] - offset[d]) / h - keys[i][d]) for i in range(len(keys)) for d, c in enumerate("xyz"))
+    shifted = os.path.join(tmp, "shifted.gdp")
+    shifted_gdp(gdp, offset, shifted)
+    source = ",".join(repr(first["source_node"][d] - offset[d]) for d in range(3))
+    probe = ours("band", shifted, base, tmp)
+    flags = base + ["--eta", repr(first["eta"] / probe["band"]["median_mu_at_samples"])]  # GPGP's η is absolute
+    out = {"offset": offset, "off_lattice_max": off_lattice, "reference_voxels": len(keys), "mapped_flags": flags,
+           "band_voxels": probe["band"]["voxels"], "mass": probe["band"]["mass"]}
+    for command, grid, column in (("green", "green", "green"), ("geodesic", "geodesic", "distance")):
+        vdb = os.path.join(tmp, command + ".vdb")
+        subprocess.run([args.exe, command, shifted, "--source", source, "-o", vdb, "--quiet"] + flags, check=True)
+        mine = grid_values(vdb, grid)
+        common = [i for i, k in enumerate(keys) if k in mine]
+        o = [mine[keys[i]] for i in common]
+        t = [g[column][i] for i in common]
+        out[command] = {"our_voxels": len(mine), "common_voxels": len(common), **fit(o, t),
+                        # GPGP's L lacks the h its M carries, its source is M e_s, its distances are in voxels
+                        "expected_scale": first["source_mu"] * h ** 4 if command == "green" else 1 / h}
+    return out
+
+
 results = {"command": "python3 bench/reference.py --gpgp PATH --inputs %s --repeat %d%s%s%s" %
            (args.inputs, args.repeat, " --no-eigen" if args.no_eigen else "",
-            " --agreement-only" if args.agreement_only else "",
+            " --agreement-only" + (" --joins" if args.joins else "") if args.agreement_only else "",
             " --gpgp-args '%s'" % args.gpgp_args if args.gpgp_args else ""),
            "machine": {"nproc": os.cpu_count()}, "date": time.strftime("%Y-%m-%d"), "inputs": []}
 with tempfile.TemporaryDirectory() as tmp:
@@ -148,6 +220,8 @@ with tempfile.TemporaryDirectory() as tmp:
             results["inputs"].append({"input": name, "length_scale": ell, "mapped_flags": base + ["--iso", repr(iso)],
                                       "gpgp": {k: first[k] for k in ("voxels", "dx", "iso", "mass", "smoothing")},
                                       "agreement_at_reference_voxels": agree})
+            if args.joins:
+                results["inputs"][-1]["joins_on_reference_lattice"] = joins(gdp, first, base + ["--iso", repr(iso)], tmp)
             print(json.dumps(results["inputs"][-1], indent=1))
             continue
         probe = ours("band", gdp, base + ["--iso", repr(iso)], tmp)

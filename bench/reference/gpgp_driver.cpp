@@ -151,6 +151,10 @@ int main(int argc, char** argv) {
         std::printf("[Green's function] %.3f s: %ld CG iterations, error %.3g\n", tGreen, long(cg.iterations()), cg.error());
         json << ", \"green\": " << tGreen;
         extra += ", \"green_iterations\": " + std::to_string(cg.iterations());
+        std::ostringstream node;
+        node.precision(10);
+        node << ", \"source_node\": [" << X(0, s) << ", " << X(1, s) << ", " << X(2, s) << "], \"source_mu\": " << mu(s);
+        extra += node.str();
     }
     if (fmm) {
         t = Clock::now();
@@ -192,14 +196,19 @@ int main(int argc, char** argv) {
     if (!dump.empty()) {
         FILE* f = std::fopen((dump + "_voxels.csv").c_str(), "w");
         if (!f) return 1;
-        std::fprintf(f, "x,y,z,mu,T00,T01,T02,T11,T12,T22,mean\n");
+        // (precomputeStencils may add a node past the band: the distance vector is then longer by one)
+        const bool withGreen = greenValues.size() == m, withDistance = distance.size() >= m;
+        std::fprintf(f, "x,y,z,mu,T00,T01,T02,T11,T12,T22,mean%s%s\n", withGreen ? ",green" : "", withDistance ? ",distance" : "");
         std::vector<const StochasticCalculus::ComputeNode*> byId(std::size_t(m), nullptr);
         for (const auto& entry : calculus.getNodes())
             if (entry.second.id >= 0 && entry.second.id < m) byId[std::size_t(entry.second.id)] = &entry.second;
         for (int i = 0; i < m; ++i) {
             const auto& G = byId[std::size_t(i)]->G;
-            std::fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", X(0, i), X(1, i), X(2, i), mu(i), G(0, 0), G(0, 1),
+            std::fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g", X(0, i), X(1, i), X(2, i), mu(i), G(0, 0), G(0, 1),
                          G(0, 2), G(1, 1), G(1, 2), G(2, 2), byId[std::size_t(i)]->pred.mean(0));
+            if (withGreen) std::fprintf(f, ",%.9g", greenValues(i));
+            if (withDistance) std::fprintf(f, ",%.9g", distance(i));
+            std::fprintf(f, "\n");
         }
         std::fclose(f);
     }
