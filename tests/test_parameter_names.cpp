@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 
 #include "cli_run.h"
@@ -99,4 +100,40 @@ TEST_CASE("parameter names: gpisvdb query names --step, not the engine's field, 
     CHECK(r.err.find("(--step)") != std::string::npos);
     CHECK(r.err.find("Options::") == std::string::npos);
     CHECK_FALSE(fs::exists(out));
+}
+
+TEST_CASE("parameter names: every flag of every subcommand is named in docs/guide.md", "[app][cli]") {
+    // The guide's command table and flag paragraphs are the users' list of flags: a flag added to the command line
+    // and not there fails here. Subcommands as the top-level --help lists them; a flag with a short alias passes
+    // when either is named.
+    const std::string guide = fileText((kSource / "docs" / "guide.md").string());
+    REQUIRE(!guide.empty());
+    const auto named = [&](const std::string& flag) {
+        const std::regex word("(^|[^a-z0-9-])" + flag + "([^a-z0-9-]|$)");
+        return std::regex_search(guide, word);
+    };
+    const auto top = gpisvdb::test::cli::run("--help");
+    REQUIRE(top.code == 0);
+    std::vector<std::string> commands;
+    const std::regex subcommand("^  ([a-z]+) {2,}");
+    std::istringstream lines(top.out.substr(top.out.find("Subcommands:")));
+    for (std::string line; std::getline(lines, line);)
+        if (std::smatch m; std::regex_search(line, m, subcommand)) commands.push_back(m[1]);
+    CHECK(commands.size() >= 16);
+    const std::regex option("^ +(-([a-zA-Z]),)?--([a-z0-9-]+)");
+    std::vector<std::string> missing;
+    for (const std::string& c : commands) {
+        const auto help = gpisvdb::test::cli::run(c + " --help");
+        std::istringstream options(help.out);
+        for (std::string line; std::getline(options, line);) {
+            std::smatch m;
+            if (!std::regex_search(line, m, option) || m[3] == "help") continue;
+            if (!named("--" + std::string(m[3])) && !(m[2].matched && named("-" + std::string(m[2]))))
+                missing.push_back(c + " --" + std::string(m[3]));
+        }
+    }
+    std::string list;
+    for (const auto& f : missing) list += "\n  " + f;
+    INFO(commands.size() << " subcommands; flags the guide does not name:" << list);
+    CHECK(missing.empty());
 }
