@@ -1438,6 +1438,12 @@ TEST_CASE("cli: spectrum and regress default to the eigen solvers' band-voxel bu
     const nlohmann::json report = nlohmann::json::parse(std::ifstream(json));
     CHECK(report["parameters"]["max_band_voxels"].get<double>() == 20000);
     CHECK(report["band"]["voxels"].get<double>() <= 1.3 * 20000);
+    // info forecasts the band these commands build when asked --for them.
+    const std::string forecast = temp("eigen_budget_info.json");
+    r = run("info " + cloud + " --for spectrum --quiet --report " + forecast);
+    REQUIRE(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("--max-voxels 300000"));
+    CHECK(nlohmann::json::parse(std::ifstream(forecast))["forecast"]["max_band_voxels"].get<double>() == 3e5);
     // The defaults as --help shows them: the eigen solvers' commands 3e5, the others 4e6.
     for (const std::string command : {"spectrum", "regress"})
         CHECK_THAT(run(command + " --help").out, Catch::Contains("--max-voxels FLOAT=300000"));

@@ -10,6 +10,7 @@
 #include "band_job.h"
 #include "commands.h"
 #include "gpisvdb/band/band_forecast.h"
+#include "spectrum_job.h"
 
 namespace gpisvdb::cli {
 
@@ -17,9 +18,9 @@ namespace {
 
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-/// The model loaded and the band planned as `gpisvdb band` does (both timed), then the pilot. A band that the memory
-/// limit or the voxel cap refuses is a forecast too: the report's `refused` holds the message.
-nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, const BandFlags& flags) {
+/// The model loaded and the band planned as `gpisvdb <command>` does (both timed), then the pilot. A band that the
+/// memory limit or the voxel cap refuses is a forecast too: the report's `refused` holds the message.
+nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, const BandFlags& flags, const std::string& command) {
     const auto start = Clock::now();
     const ModelOptions mo = modelOptions(flags.model);
     // The model's own peak (its samples and tree while they are made) is measured: on large inputs it is the run's.
@@ -65,7 +66,7 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
                 {"write_seconds", f.writeSeconds},
                 {"seconds", total}});
     const auto millions = [](double n) { return numberText(std::round(n / 1e3) / 1e3) + " M"; };
-    std::cout << "default band (what `gpisvdb band` with these flags would build; a forecast, docs/band.md#forecast):\n"
+    std::cout << "default band (what `gpisvdb " << command << "` with these flags would build; a forecast, docs/band.md#forecast):\n"
               << "  " << voxelSizeNote(plan) << "\n";
     if (model.input.normalsFlipped) std::cout << "  normals:     " << kNormalsFlippedNote << "\n";
     if (plan.budgeted)
@@ -90,6 +91,7 @@ struct Args {
     std::string input;
     BandFlags flags;
     bool forecast = true;
+    std::string forCommand = "band";  ///< --for: whose default band to forecast
 };
 
 /// The flags of `gpisvdb info`.
@@ -97,6 +99,11 @@ void addFlags(CLI::App& cmd, Args& a) {
     cmd.add_option("INPUT", a.input, kInputHelp)->required();
     addBandFlags(cmd, a.flags);
     cmd.add_flag("!--no-forecast", a.forecast, "describe the input only: no model, no band forecast");
+    cmd.add_option("--for", a.forCommand,
+                   "forecast the band this command builds: band (also green, geodesic, ...: the same band) or spectrum / "
+                   "regress (their smaller default --max-voxels, docs/spectrum.md#budget)")
+        ->check(CLI::IsMember({"band", "spectrum", "regress"}))
+        ->capture_default_str();
 }
 
 /// `gpisvdb info` once its flags are parsed.
@@ -141,7 +148,8 @@ void execute(Args& a) {
             {"path", data.path}, {"samples", s.samples.size()}, {"kind", s.isSoup ? "triangle soup" : "oriented point cloud"}};
     }
     // (the samples are freed first: the band command holds the input and the model only)
-    if (a.forecast) report["forecast"] = forecastDefaultBand(data, readSeconds, a.flags);
+    if (a.forCommand != "band" && !a.flags.maxBandVoxelsGiven) eigenBandBudget(a.flags);
+    if (a.forecast) report["forecast"] = forecastDefaultBand(data, readSeconds, a.flags, a.forCommand);
     if (reportOut) commitReport(*reportOut, report);
 }
 
