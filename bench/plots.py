@@ -59,6 +59,7 @@ THREAD_USE = {
     "spectrum": "band uses all threads; CHOLMOD + OpenBLAS serial",
     "extras": "uses all threads",
     "scan_model": "evaluation on 1 thread, samples and tree on all",
+    "reference": "2 threads (OpenMP for GPGP, TBB for gpisvdb)",
     "energy": "uses all threads",
 }
 # Paper (Genest & Coeurjolly, cited in docs/math.md) Sec. 9: Intel Xeon W-2245, 8 cores; Green's problem of Fig. 5, sigma {0.25, 0.5, 1}
@@ -748,6 +749,48 @@ def plot_scan_model(ctx, d):
     ctx.save(fig, "scan_model", "scan_model", d)
 
 
+def plot_reference(ctx):
+    """GPGP's stage times over ours in its reference mode (bench/reference.py), per input: medians of alternated runs
+    where the file has them, one run otherwise; the eigenpairs from the one run that measured them."""
+    files = [("reference_repeat3.json", "median of 3"), ("reference_macaca.json", "one run"), ("reference.json", "one run")]
+    rows, commands = {}, []
+    for name, how in files:
+        d = load(os.path.join(ctx.results, name)) if os.path.exists(os.path.join(ctx.results, name)) else None
+        if not d:
+            continue
+        commands.append(d.get("command", name))
+        for i in d.get("inputs", []):
+            g, o = i["gpgp"]["seconds"], i["reference_mode"]["seconds"]
+            r = rows.setdefault(i["input"].replace("_variance", ""), {"how": how})
+            pairs = {"band + μ + T": (g.get("band"), o.get("band")), "operators": (g.get("operators"), o.get("operators")),
+                     "Green": (g.get("green"), o.get("green")),
+                     "geodesic": ((g.get("fmm_stencils") or 0) + (g.get("fmm_march") or 0) or None, o.get("geodesic")),
+                     "10 eigenpairs (one run)": (g.get("eigen"), o.get("eigen"))}
+            for stage, (a, b) in pairs.items():
+                if a and b and stage not in r:
+                    r[stage] = a / b
+    if not rows:
+        return
+    stages = ["band + μ + T", "operators", "Green", "geodesic", "10 eigenpairs (one run)"]
+    inputs = sorted(rows)
+    fig, ax = plt.subplots(figsize=(11, 4.6))
+    width = 0.8 / len(inputs)
+    for k, name in enumerate(inputs):
+        xs = [j + (k - (len(inputs) - 1) / 2) * width for j, st in enumerate(stages) if st in rows[name]]
+        ys = [rows[name][st] for st in stages if st in rows[name]]
+        ax.bar(xs, ys, width, label="%s (%s)" % (name, rows[name]["how"]), color="C%d" % k)
+        for x, y in zip(xs, ys):
+            ax.text(x, y * 1.05, "%.0f×" % y if y >= 10 else "%.1f×" % y, ha="center", va="bottom", fontsize=7)
+    ax.set_yscale("log")
+    ax.axhline(1, color="0.5", lw=0.8)
+    ax.set_xticks(range(len(stages)))
+    ax.set_xticklabels(stages)
+    ax.set_ylabel("GPGP's time / gpisvdb's (reference mode)")
+    ax.set_title("The paper's implementation (GPGP) against gpisvdb on its own data, same parameters, same 2-core machine")
+    ax.legend(fontsize=8)
+    ctx.save(fig, "reference", "reference", {"command": "; ".join(commands), "machine": {"nproc": 2}})
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", default="bench/results")
@@ -766,6 +809,7 @@ def main():
         if data is not None:
             fn(ctx, data)
     plot_energy(ctx)
+    plot_reference(ctx)
     print("bench/plots.py: %d figures" % len(ctx.written))
 
 
