@@ -66,6 +66,13 @@ def ours(command, gdp, flags, tmp, extra=()):
     return json.load(open(report))
 
 
+def with_reference_eta(gdp, first, flags, tmp):
+    """`flags` plus GPGP's η, which is absolute, as our relative --eta: over the median μ at the samples' voxels of a
+    band built with `flags` (a probe). Returns the flags and the probe's report."""
+    probe = ours("band", gdp, flags, tmp)
+    return flags + ["--eta", repr(first["eta"] / probe["band"]["median_mu_at_samples"])], probe
+
+
 def dipole_positions(gdp):
     tokens = open(gdp).read().split()
     n = int(tokens[1])
@@ -175,8 +182,7 @@ def joins(gdp, first, base, tmp):
     shifted = os.path.join(tmp, "shifted.gdp")
     shifted_gdp(gdp, offset, shifted)
     source = ",".join(repr(first["source_node"][d] - offset[d]) for d in range(3))
-    probe = ours("band", shifted, base, tmp)
-    flags = base + ["--eta", repr(first["eta"] / probe["band"]["median_mu_at_samples"])]  # GPGP's η is absolute
+    flags, probe = with_reference_eta(shifted, first, base, tmp)
     out = {"offset": offset, "off_lattice_max": off_lattice, "reference_voxels": len(keys), "mapped_flags": flags,
            "band_voxels": probe["band"]["voxels"], "mass": probe["band"]["mass"]}
     for command, grid, column in (("green", "green", "green"), ("geodesic", "geodesic", "distance")):
@@ -224,9 +230,7 @@ with tempfile.TemporaryDirectory() as tmp:
                 results["inputs"][-1]["joins_on_reference_lattice"] = joins(gdp, first, base + ["--iso", repr(iso)], tmp)
             print(json.dumps(results["inputs"][-1], indent=1))
             continue
-        probe = ours("band", gdp, base + ["--iso", repr(iso)], tmp)
-        eta = first["eta"] / probe["band"]["median_mu_at_samples"]  # GPGP's η is absolute, ours relative
-        mapped = base + ["--iso", repr(iso), "--eta", repr(eta)]
+        mapped, _ = with_reference_eta(gdp, first, base + ["--iso", repr(iso)], tmp)
         runs = {"gpgp": [first], "reference_mode": [], "defaults": []}
         for k in range(args.repeat):
             if k:
