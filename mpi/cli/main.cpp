@@ -10,6 +10,7 @@
 
 #include "common.h"
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/core/worker_threads.h"
 #include "gpisvdb/mpi/petsc_laplacian.h"
 #include "gpisvdb/mpi/ranks.h"
 #include "mpi_commands.h"
@@ -69,6 +70,7 @@ int main(int argc, char** argv) {
     gpisvdb::mpi::quietPetscErrors();
     int code = 0;
     {
+        gpisvdb::WorkerThreadsJoin workers;  // joined at the end of this block, before PETSc, MPI and exit stop
         const gpisvdb::mpi::Ranks ranks(MPI_COMM_WORLD);
         code = run(argc, argv, ranks);
     }

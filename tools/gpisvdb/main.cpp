@@ -6,10 +6,12 @@
 #include "commands.h"
 #include "common.h"
 #include "gpisvdb/core/errors.h"
+#include "gpisvdb/core/worker_threads.h"
 
 int main(int argc, char** argv) {
     using namespace gpisvdb;
     cli::installInterruptHandler();  // before any thread starts
+    WorkerThreadsJoin workers;       // joined when main returns, before the exit handlers run
     CLI::App app{"gpisvdb: geometry processing on Gaussian Process Implicit Surfaces (GPIS), on OpenVDB"};
     app.set_version_flag("--version", std::string("gpisvdb ") + GPISVDB_VERSION);
     app.require_subcommand(1);
