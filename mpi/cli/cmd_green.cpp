@@ -29,6 +29,31 @@ void addFlags(CLI::App& cmd, Args& a) {
     addSolverFlags(cmd, a.solver, SolverFlags::Distributed);
 }
 
+/// The distributed solve in the terms of the PCG's result (the report's and the convergence check's).
+PcgResult pcgResultOf(const mpi::DistributedGreen& g) {
+    PcgResult solve;
+    solve.iterations = g.iterations;
+    solve.relativeResidual = solve.floatResidual = g.relativeResidual;
+    solve.converged = g.converged;
+    solve.preconditioner = g.preconditioner;
+    return solve;
+}
+
+/// Rank 0's report: the band's, with the solve, the ranks, the source and the timings.
+nlohmann::json greenReport(const BandJob& job, const Args& a, const mpi::DistributedGreen& g, const PcgResult& solve,
+                           const openvdb::Coord& y, const nlohmann::json& mpiSection, double total) {
+    nlohmann::json report = bandReport(job, a.flags);
+    report["solver"] = solverReport(solve, a.solver);
+    report["solver"]["method"] = std::string("PETSc CG, ") + preconditionerName(g.preconditioner) +
+                                 (g.preconditioner == Preconditioner::Multigrid ? " (hypre BoomerAMG)" : "");
+    report["mpi"] = mpiSection;
+    report["green"] = {{"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}}, {"source_index", g.sourceIndex}};
+    report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", g.assembleSeconds},
+                           {"setup", g.setupSeconds},   {"solve", g.solveSeconds}, {"total", total}};
+    report["outputs"] = {a.output};
+    return report;
+}
+
 /// `gpisvdb-mpi green` once its flags are parsed, on every rank.
 void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
     mpi::together(ranks, [&] {
@@ -40,11 +65,7 @@ void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
     const BandJob& job = run.job;
     const mpi::DistributedGreen g =
         greensFunctionPetsc(ranks, run.band, Vec3d(a.source[0], a.source[1], a.source[2]), a.solver, run.progress);
-    PcgResult solve;
-    solve.iterations = g.iterations;
-    solve.relativeResidual = solve.floatResidual = g.relativeResidual;
-    solve.converged = g.converged;
-    solve.preconditioner = g.preconditioner;
+    const PcgResult solve = pcgResultOf(g);
     mpi::together(ranks, [&] { requireConverged(solve, a.solver); });
     const std::vector<float> values = mpi::gatherChannel(ranks, g.local);
     const std::size_t ghosts = mpi::sum(ranks, g.ghosts);
@@ -59,18 +80,7 @@ void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
         writeBandVdb(band, run.out->tempPath(), meta, {{"green", &values}}, {}, a.flags.vdb);
         run.out->commit();
         const double total = std::chrono::duration<double>(Clock::now() - start).count();
-        if (run.report) {
-            nlohmann::json report = bandReport(job, a.flags);
-            report["solver"] = solverReport(solve, a.solver);
-            report["solver"]["method"] = std::string("PETSc CG, ") + preconditionerName(g.preconditioner) +
-                                         (g.preconditioner == Preconditioner::Multigrid ? " (hypre BoomerAMG)" : "");
-            report["mpi"] = mpiSection;
-            report["green"] = {{"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}}, {"source_index", g.sourceIndex}};
-            report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", g.assembleSeconds},
-                                   {"setup", g.setupSeconds},   {"solve", g.solveSeconds}, {"total", total}};
-            report["outputs"] = {a.output};
-            commitReport(*run.report, report);
-        }
+        if (run.report) commitReport(*run.report, greenReport(job, a, g, solve, y, mpiSection, total));
         if (!a.flags.model.quiet)
             std::cerr << "green: " << band.size() << " voxels on " << ranks.size << " ranks, PETSc CG ("
                       << preconditionerName(g.preconditioner) << ") " << g.iterations << " iterations to " << g.relativeResidual << ", "

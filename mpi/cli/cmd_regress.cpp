@@ -11,6 +11,23 @@ namespace gpisvdb::cli {
 
 namespace {
 
+/// The eigenpairs as gpisvdb's spectrum returns them, the vectors gathered on rank 0 (every rank takes part).
+EigenResult gatheredEigenpairs(const mpi::Ranks& ranks, const mpi::DistributedSpectrum& s) {
+    EigenResult e;
+    e.values = s.values;
+    e.residuals = s.residuals;
+    e.orthonormalityError = s.orthonormalityError;
+    e.method = s.method;
+    e.iterations = s.iterations;
+    for (std::size_t i = 0; i < s.local.size(); ++i) {
+        const std::vector<double> all = mpi::gatherChannel(ranks, s.local[i]);
+        if (ranks.rank != 0) continue;
+        if (i == 0) e.vectors.resize(Eigen::Index(all.size()), Eigen::Index(s.local.size()));
+        e.vectors.col(Eigen::Index(i)) = Eigen::Map<const Eigen::VectorXd>(all.data(), Eigen::Index(all.size()));
+    }
+    return e;
+}
+
 /// `gpisvdb-mpi regress` once its flags are parsed, on every rank.
 void execute(const mpi::Ranks& ranks, RegressArgs& a, Clock::time_point start) {
     RegressionOptions options;
@@ -33,19 +50,7 @@ void execute(const mpi::Ranks& ranks, RegressArgs& a, Clock::time_point start) {
     });
     const auto tSolve = Clock::now();
     const mpi::DistributedSpectrum s = mpi::spectrumSlepc(ranks, run.band, a.eigen, run.progress);
-    // === The eigenpairs as gpisvdb's spectrum returns them, on rank 0
-    EigenResult e;
-    e.values = s.values;
-    e.residuals = s.residuals;
-    e.orthonormalityError = s.orthonormalityError;
-    e.method = s.method;
-    e.iterations = s.iterations;
-    for (std::size_t i = 0; i < s.local.size(); ++i) {
-        const std::vector<double> all = mpi::gatherChannel(ranks, s.local[i]);
-        if (ranks.rank != 0) continue;
-        if (i == 0) e.vectors.resize(Eigen::Index(all.size()), Eigen::Index(s.local.size()));
-        e.vectors.col(Eigen::Index(i)) = Eigen::Map<const Eigen::VectorXd>(all.data(), Eigen::Index(all.size()));
-    }
+    const EigenResult e = gatheredEigenpairs(ranks, s);
     const double secondsSpectrum = std::chrono::duration<double>(Clock::now() - tSolve).count();
     const std::size_t ghosts = mpi::sum(ranks, s.ghosts);
     const nlohmann::json mpiSection = mpiReport(ranks, run.band, {{"halo_unknowns", ghosts}});

@@ -11,6 +11,29 @@ namespace gpisvdb::cli {
 
 namespace {
 
+openvdb::MetaMap spectrumMetadata(const BandJob& job, const SpectrumArgs& a, const mpi::DistributedSpectrum& s) {
+    openvdb::MetaMap meta = bandMetadata(job, a.flags);
+    for (Eigen::Index i = 0; i < s.values.size(); ++i)
+        meta.insertMeta(eigenGridName(int(i)) + "_eigenvalue", openvdb::DoubleMetadata(s.values(i)));
+    meta.insertMeta("spectrum_max_residual", openvdb::DoubleMetadata(s.residuals.maxCoeff()));
+    return meta;
+}
+
+/// Rank 0's report: the band's, with the eigenpairs, the ranks and the timings.
+nlohmann::json spectrumReport(const BandJob& job, const SpectrumArgs& a, const mpi::DistributedSpectrum& s,
+                              const nlohmann::json& mpiSection, double total) {
+    nlohmann::json report = bandReport(job, a.flags);
+    report["spectrum"] = slepcSpectrumReport(s);
+    report["mpi"] = mpiSection;
+    report["timings_s"] = {{"model", job.secondsModel},
+                           {"band", job.secondsBand},
+                           {"operators", s.assembleSeconds},
+                           {"solve", s.solveSeconds},
+                           {"total", total}};
+    report["outputs"] = {a.output};
+    return report;
+}
+
 /// `gpisvdb-mpi spectrum` once its flags are parsed, on every rank.
 void execute(const mpi::Ranks& ranks, SpectrumArgs& a, Clock::time_point start) {
     mpi::together(ranks, [&] {
@@ -32,25 +55,11 @@ void execute(const mpi::Ranks& ranks, SpectrumArgs& a, Clock::time_point start) 
         const Band& band = job.result.band;
         std::vector<NamedChannel> grids;
         for (std::size_t i = 0; i < vectors.size(); ++i) grids.push_back({eigenGridName(int(i)), &vectors[i]});
-        openvdb::MetaMap meta = bandMetadata(job, a.flags);
-        for (Eigen::Index i = 0; i < s.values.size(); ++i)
-            meta.insertMeta(eigenGridName(int(i)) + "_eigenvalue", openvdb::DoubleMetadata(s.values(i)));
-        meta.insertMeta("spectrum_max_residual", openvdb::DoubleMetadata(s.residuals.maxCoeff()));
+        const openvdb::MetaMap meta = spectrumMetadata(job, a, s);
         writeBandVdb(band, run.out->tempPath(), meta, grids, {}, a.flags.vdb);
         run.out->commit();
         const double total = std::chrono::duration<double>(Clock::now() - start).count();
-        if (run.report) {
-            nlohmann::json report = bandReport(job, a.flags);
-            report["spectrum"] = slepcSpectrumReport(s);
-            report["mpi"] = mpiSection;
-            report["timings_s"] = {{"model", job.secondsModel},
-                                   {"band", job.secondsBand},
-                                   {"operators", s.assembleSeconds},
-                                   {"solve", s.solveSeconds},
-                                   {"total", total}};
-            report["outputs"] = {a.output};
-            commitReport(*run.report, report);
-        }
+        if (run.report) commitReport(*run.report, spectrumReport(job, a, s, mpiSection, total));
         if (!a.flags.model.quiet)
             std::cerr << "spectrum: " << band.size() << " voxels on " << ranks.size << " ranks, " << s.values.size()
                       << " eigenpairs, lambda " << s.values(0) << " ... " << s.values(s.values.size() - 1) << ", max residual "

@@ -15,7 +15,7 @@ MpiBandCommand startMpiBandCommand(const mpi::Ranks& ranks, const std::string& i
         data = readInput(input);  // every rank reads the input and builds the same model
         if (ranks.rank == 0) {
             c.out = std::make_unique<AtomicOutput>(output);
-            if (!flags.report.empty()) c.report = std::make_unique<AtomicOutput>(flags.report);
+            c.report = optionalOutput(flags.report);
         }
     });
     c.progress = makeProgress(flags.model.quiet || ranks.rank != 0);  // every rank polls Ctrl-C

@@ -143,7 +143,7 @@ BandCommand startBandCommand(const std::string& input, const std::string& output
     const InputData data = readInput(input);
     BandCommand c;
     c.out = std::make_unique<AtomicOutput>(output);
-    if (!flags.report.empty()) c.report = std::make_unique<AtomicOutput>(flags.report);
+    c.report = optionalOutput(flags.report);
     c.progress = makeProgress(flags.model.quiet);
     c.job = runBand(data, flags, c.progress);
     return c;

@@ -93,74 +93,62 @@ std::string sigmaText(double s) {
     return o.str();
 }
 
-SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, const fs::path& tmp, const Progress& progress) {
-    SigmaRun run;
-    run.sigmaRel = sigmaRel;
-    run.subdir = "sigma-" + sigmaText(sigmaRel);
-    fs::create_directory(tmp / run.subdir);
-    BandFlags flags;
-    flags.model.sigmaRel = sigmaRel;
-    flags.model.quiet = a.quiet;
-    flags.band.voxelSize = a.voxelSize;
-    flags.vdb.halfFloat = a.half;
-    flags.maxMemory = a.maxMemory;
-
-    // === Band
-    const BandJob job = runBand(data, flags, progress);
+/// Green's function from the source (Alg. 1); each stage's memory is estimated and refused before it allocates, as
+/// the commands do, and measured over it (docs/memory.md#demo).
+GreenResult demoGreen(const BandJob& job, SigmaRun& run, const Progress& progress) {
+    const auto t = Clock::now();
     const Band& band = job.result.band;
-    run.sigma = job.model.input.sigma;
-    run.voxels = band.size();
-    run.voxelSize = job.options.voxelSize;
-    run.mass = band.mass();
-
-    // === Green's function from the source (Alg. 1); each stage's memory estimated and refused before it allocates,
-    //     as the commands do, and measured over it (docs/memory.md#demo)
-    auto t = Clock::now();
     PcgOptions pcg;
     pcg.tolerance = 1e-5;  // pictures need far less than the default 1e-6
-    const MemoryEstimate greenMemory = estimateStage(
+    const MemoryEstimate memory = estimateStage(
         job, "Green's function solve",
         greenSolveBytes(band.size(), pcg,
                         resolvePreconditioner(pcg.preconditioner, band.size(), /*assemblable*/ true, /*bandLaplacian*/ true)));
-    bool stageOnly = resetPeakResident();
+    const bool stageOnly = resetPeakResident();
     const LaplacianOperator L(band);
-    const GreenResult green = greensFunction(band, L, kSource, pcg, progress);
-    run.memory["green"] = memoryStageReport(greenMemory, peakResidentBytes(), stageOnly);
+    GreenResult green = greensFunction(band, L, kSource, pcg, progress);
+    run.memory["green"] = memoryStageReport(memory, peakResidentBytes(), stageOnly);
     requireConverged(green.solver, pcg);
     run.greenIterations = green.solver.iterations;
-    const double secondsGreen = since(t);
+    run.timings["green"] = since(t);
+    return green;
+}
 
-    // === Geodesic distance from the source, shortest path from the target (Eq. 28)
-    t = Clock::now();
-    const MemoryEstimate marchMemory = estimateStage(job, "fast march", {{"fast_marching", geodesicMarchBytes(band)}});
-    stageOnly = resetPeakResident();
-    const GeodesicResult geo = geodesicDistance(band, {kSource}, {kTarget}, {}, progress);
-    run.memory["geodesic"] = memoryStageReport(marchMemory, peakResidentBytes(), stageOnly);
-    std::vector<float> U(band.size());
-    for (std::size_t i = 0; i < band.size(); ++i) U[i] = float(geo.march.distance[i]);
+/// Geodesic distance from the source, shortest path from the target (Eq. 28).
+GeodesicResult demoGeodesic(const BandJob& job, SigmaRun& run, const Progress& progress) {
+    const auto t = Clock::now();
+    const MemoryEstimate memory = estimateStage(job, "fast march", {{"fast_marching", geodesicMarchBytes(job.result.band)}});
+    const bool stageOnly = resetPeakResident();
+    GeodesicResult geo = geodesicDistance(job.result.band, {kSource}, {kTarget}, {}, progress);
+    run.memory["geodesic"] = memoryStageReport(memory, peakResidentBytes(), stageOnly);
     run.path = geo.paths.front();
     run.pathCrossesGap = crossesGap(run.path);
-    const double secondsGeodesic = since(t);
+    run.timings["geodesic"] = since(t);
+    return geo;
+}
 
-    // === Lowest eigenpairs (Sec. 10.1)
-    t = Clock::now();
+/// Lowest eigenpairs (Sec. 10.1), each vector as a band channel.
+std::vector<std::vector<float>> demoSpectrum(const BandJob& job, const DemoArgs& a, SigmaRun& run, const Progress& progress) {
+    const auto t = Clock::now();
     EigenOptions eo;
     eo.count = a.eigenCount;
     nlohmann::json spectrumStage;
     const EigenResult eigen = runSpectrum(job, eo, progress, &spectrumStage);
     run.memory["spectrum"] = spectrumStage;
-    const double secondsSpectrum = since(t);
+    run.timings["spectrum"] = since(t);
     std::vector<std::vector<float>> vectors(std::size_t(eigen.values.size()));
-    std::vector<NamedChannel> channels{{"green", &green.values}, {"geodesic", &U}};
     for (Eigen::Index i = 0; i < eigen.values.size(); ++i) {
         vectors[std::size_t(i)].assign(eigen.vectors.col(i).data(), eigen.vectors.col(i).data() + eigen.vectors.rows());
-        channels.push_back({eigenGridName(int(i)), &vectors[std::size_t(i)]});
         run.eigenvalues.push_back(eigen.values(i));
     }
+    return vectors;
+}
 
-    // === Plausible sections: kSectionDraws draws of the field on the band's layer at z = 0 (a few % of its voxels),
-    //     each one's level line u there (docs/uncertainty.md#plausible-surfaces)
-    t = Clock::now();
+/// Plausible sections: kSectionDraws draws of the field on the band's layer at z = 0 (a few % of its voxels), each
+/// one's level line u there (docs/uncertainty.md#plausible-surfaces).
+void demoSections(const BandJob& job, SigmaRun& run, const Progress& progress) {
+    const auto t = Clock::now();
+    const Band& band = job.result.band;
     const int layer = int(std::lround(kSection.value / band.voxelSize));
     std::vector<std::size_t> layerVoxels;
     for (std::size_t i = 0; i < band.size(); ++i)
@@ -172,30 +160,32 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     std::vector<float> layerMean;
     for (std::size_t i : layerVoxels) layerMean.push_back(band.mean[i]);
     const auto meanLayer = drawGrid(band, layerVoxels, layerMean);
-    const MemoryEstimate sectionMemory =
-        estimateStage(job, "plausible sections",
-                      {{"draws' noise and tree", SurfaceDraws::bytes(samples.size(), drawOptions)},
-                       {"draws' values on the slice", 4.0 * kSectionDraws * double(layerVoxels.size())},
-                       {"draw's grid", double(meanLayer->memUsage())}});  // one at a time, the mean's topology
-    stageOnly = resetPeakResident();
+    const MemoryEstimate memory = estimateStage(job, "plausible sections",
+                                                {{"draws' noise and tree", SurfaceDraws::bytes(samples.size(), drawOptions)},
+                                                 {"draws' values on the slice", 4.0 * kSectionDraws * double(layerVoxels.size())},
+                                                 {"draw's grid", double(meanLayer->memUsage())}});  // one at a time, the mean's topology
+    const bool stageOnly = resetPeakResident();
     if (!layerVoxels.empty()) {
         const SurfaceDraws draws(samples, job.model.smoothing, drawOptions);
         const std::vector<std::vector<float>> fields = draws.onBand(band, layerVoxels, progress);
         run.meanSection = sliceContour(*meanLayer, kSection, band.iso);
         for (const auto& f : fields) run.drawSections.push_back(sliceContour(*drawGrid(band, layerVoxels, f), kSection, band.iso));
     }
-    run.memory["sections"] = memoryStageReport(sectionMemory, peakResidentBytes(), stageOnly);
-    const double secondsSections = since(t);
+    run.memory["sections"] = memoryStageReport(memory, peakResidentBytes(), stageOnly);
+    run.timings["sections"] = since(t);
+}
 
-    // === Outputs: the .vdb, the mean surface with every scalar field, the path
-    t = Clock::now();
-    const openvdb::GridPtrVec grids = bandGrids(band, channels, {}, flags.vdb);
+/// Outputs: the .vdb, the mean surface with every scalar field, the path.
+void writeDemoOutputs(const BandJob& job, const BandFlags& flags, const std::vector<NamedChannel>& channels,
+                      const std::vector<GeodesicPath>& paths, const fs::path& dir, SigmaRun& run) {
+    const auto t = Clock::now();
+    const openvdb::GridPtrVec grids = bandGrids(job.result.band, channels, {}, flags.vdb);
     openvdb::MetaMap meta = bandMetadata(job, flags);
     meta.insertMeta("green_source", openvdb::Vec3DMetadata(openvdb::Vec3d(kSource.data())));
     meta.insertMeta("geodesic_target", openvdb::Vec3DMetadata(openvdb::Vec3d(kTarget.data())));
     for (std::size_t i = 0; i < run.eigenvalues.size(); ++i)
         meta.insertMeta(eigenGridName(int(i)) + "_eigenvalue", openvdb::DoubleMetadata(run.eigenvalues[i]));
-    writeVdb(grids, (tmp / run.subdir / "gpis.vdb").string(), meta, flags.vdb);
+    writeVdb(grids, (dir / "gpis.vdb").string(), meta, flags.vdb);
     openvdb::FloatGrid::Ptr mean;
     for (const auto& g : grids) {
         if (g->getName() == "mean") mean = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
@@ -205,10 +195,39 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     run.surface = meanSurface(*mean, job.options.iso);
     for (const auto& g : grids)
         if (g->isType<openvdb::FloatGrid>() && g->getName() != "mean" && g->getName() != "stencil_width") sampleAtVertices(run.surface, *g);
-    writeMesh(run.surface, (tmp / run.subdir / "surface.vtp").string(), MeshFormat::Vtp);
-    writePaths(geo.paths, (tmp / run.subdir / "path.vtp").string(), PathFormat::Vtp);
-    run.timings = {{"band", job.secondsBand},     {"green", secondsGreen},       {"geodesic", secondsGeodesic},
-                   {"spectrum", secondsSpectrum}, {"sections", secondsSections}, {"outputs", since(t)}};
+    writeMesh(run.surface, (dir / "surface.vtp").string(), MeshFormat::Vtp);
+    writePaths(paths, (dir / "path.vtp").string(), PathFormat::Vtp);
+    run.timings["outputs"] = since(t);
+}
+
+/// One σ of the demo: the band, then each task on it, then its outputs in `tmp`/sigma-σ.
+SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, const fs::path& tmp, const Progress& progress) {
+    SigmaRun run;
+    run.sigmaRel = sigmaRel;
+    run.subdir = "sigma-" + sigmaText(sigmaRel);
+    fs::create_directory(tmp / run.subdir);
+    BandFlags flags;
+    flags.model.sigmaRel = sigmaRel;
+    flags.model.quiet = a.quiet;
+    flags.band.voxelSize = a.voxelSize;
+    flags.vdb.halfFloat = a.half;
+    flags.maxMemory = a.maxMemory;
+    const BandJob job = runBand(data, flags, progress);
+    const Band& band = job.result.band;
+    run.sigma = job.model.input.sigma;
+    run.voxels = band.size();
+    run.voxelSize = job.options.voxelSize;
+    run.mass = band.mass();
+    run.timings["band"] = job.secondsBand;
+    const GreenResult green = demoGreen(job, run, progress);
+    const GeodesicResult geo = demoGeodesic(job, run, progress);
+    std::vector<float> U(band.size());
+    for (std::size_t i = 0; i < band.size(); ++i) U[i] = float(geo.march.distance[i]);
+    const std::vector<std::vector<float>> vectors = demoSpectrum(job, a, run, progress);
+    std::vector<NamedChannel> channels{{"green", &green.values}, {"geodesic", &U}};
+    for (std::size_t i = 0; i < vectors.size(); ++i) channels.push_back({eigenGridName(int(i)), &vectors[i]});
+    demoSections(job, run, progress);
+    writeDemoOutputs(job, flags, channels, geo.paths, tmp / run.subdir, run);
     return run;
 }
 
@@ -341,61 +360,38 @@ void addFlags(CLI::App& cmd, DemoArgs& a) {
                    "refuse a band, solve or picture needing more memory than this, e.g. 8G (default: half the RAM)");
 }
 
-/// `gpisvdb demo` once its flags are parsed.
-void execute(DemoArgs& a) {
-    const auto start = Clock::now();
+void checkFlags(const DemoArgs& a) {
     for (double s : a.sigmas)
         if (!(s > 0) || !std::isfinite(s)) throw ParameterError("--sigma must be finite and > 0 (got " + numberText(s) + ")");
     if (a.voxelSize != 0 && !(a.voxelSize >= 0.01 && a.voxelSize <= 0.2))
         throw ParameterError("--voxel-size must be in [0.01, 0.2] for the built-in torus");
     if (a.eigenCount < 1 || a.eigenCount > 20) throw ParameterError("-k must be in [1, 20]");
     if (a.pictureWidth < 64 || a.pictureWidth > 2000) throw ParameterError("--picture-width must be in [64, 2000]");
-    const double limit = memoryLimit(StageFlags{a.maxMemory, ""});
-    const auto threads = limitThreads(a.threads);
-    AtomicDirectory out(a.dir);
-    const fs::path tmp(out.tempPath());
-    const Progress progress = makeProgress(a.quiet);
+}
 
-    InputData data;
-    data.path = "built-in torus with a gap";
-    data.soup = demoShape();
-    std::vector<SigmaRun> runs;
-    for (double s : a.sigmas) {
-        runs.push_back(runSigma(data, s, a, tmp, progress));
-        const SigmaRun& r = runs.back();
-        if (!a.quiet)
-            std::cerr << "demo: sigma = " << s << " l: " << r.voxels << " band voxels, Green " << r.greenIterations
-                      << " PCG iterations, path " << r.path.length << (r.pathCrossesGap ? " across the gap" : " round the ring")
-                      << ", lambda_0 = " << r.eigenvalues.front() << "\n";
-    }
-    const auto tPictures = Clock::now();
-    // The comparison's memory (the larger picture): each surface in its 4 surface panels, the window of 6
-    // panels per sigma (docs/memory.md#demo); the input's picture, made after it, holds less
+/// The comparison's memory (the larger picture): each surface in its 4 surface panels, the window of 6 panels per
+/// sigma (docs/memory.md#demo); the input's picture, made after it, holds less.
+MemoryEstimate estimatePictures(const std::vector<SigmaRun>& runs, const DemoArgs& a, double limit) {
     double panelVertices = 0;
     for (const SigmaRun& r : runs) panelVertices += 4.0 * double(r.surface.vertices.size());
     const double panelPixels = double(a.pictureWidth) * double(a.pictureWidth * 5 / 6);
     const double pixels = 6.0 * double(runs.size()) * panelPixels;
-    const MemoryEstimate picturesMemory = estimateStageWithin(
+    return estimateStageWithin(
         limit, "pictures", "libraries, the results of every sigma", renderBytes(panelVertices, pixels), [&](double need, double available) {
             const double window = pixels * kRenderBytesPerPixel, fixed = need - window;
             const double width = available > fixed ? std::floor(a.pictureWidth * std::sqrt((available - fixed) / window) * 0.95) : 0;
             if (width >= 64) return "use --picture-width " + numberText(width) + " or smaller";
             return "raise it (the renderer alone holds about " + numberText(kRenderContextBytes / 1e6) + " MB)";
         });
-    const bool picturesOnly = resetPeakResident();
-    comparisonPicture(runs, a, (tmp / "comparison.png").string());
-    const double picturesPeak = peakResidentBytes();
-    inputPicture(*data.soup, a, (tmp / "input.png").string());  // after: the renderer's state it leaves is not the comparison's
-    const double secondsPictures = since(tPictures);
-    const double ell = makeSamples(data, {}).samples.lengthScale;
-    const double total = since(start);
-    writeSummary(runs, a, ell, total, (tmp / "summary.md").string());
+}
 
+/// The report: the input, the tasks' settings and each sigma's run.
+nlohmann::json demoReport(const std::vector<SigmaRun>& runs, const DemoArgs& a, const TriangleSoup& soup, double ell) {
     nlohmann::json report = {{"input",
                               {{"shape", "torus (ring 1, tube 0.4), 64 x 24 quads"},
                                {"gap_box_min", {kGapLo.x(), kGapLo.y(), kGapLo.z()}},
                                {"gap_box_max", {kGapHi.x(), kGapHi.y(), kGapHi.z()}},
-                               {"triangles", data.soup->triangles.size()},
+                               {"triangles", soup.triangles.size()},
                                {"length_scale", ell}}},
                              {"voxel_size", a.voxelSize > 0 ? nlohmann::json(a.voxelSize) : nlohmann::json("default rule per sigma")},
                              {"source", {kSource.x(), kSource.y(), kSource.z()}},
@@ -418,6 +414,41 @@ void execute(DemoArgs& a) {
                                   {"eigenvalues", r.eigenvalues},
                                   {"timings_s", r.timings},
                                   {"memory", {{"stages", r.memory}}}});
+    return report;
+}
+
+/// `gpisvdb demo` once its flags are parsed.
+void execute(DemoArgs& a) {
+    const auto start = Clock::now();
+    checkFlags(a);
+    const double limit = memoryLimit(StageFlags{a.maxMemory, ""});
+    const auto threads = limitThreads(a.threads);
+    AtomicDirectory out(a.dir);
+    const fs::path tmp(out.tempPath());
+    const Progress progress = makeProgress(a.quiet);
+    InputData data;
+    data.path = "built-in torus with a gap";
+    data.soup = demoShape();
+    std::vector<SigmaRun> runs;
+    for (double s : a.sigmas) {
+        runs.push_back(runSigma(data, s, a, tmp, progress));
+        const SigmaRun& r = runs.back();
+        if (!a.quiet)
+            std::cerr << "demo: sigma = " << s << " l: " << r.voxels << " band voxels, Green " << r.greenIterations
+                      << " PCG iterations, path " << r.path.length << (r.pathCrossesGap ? " across the gap" : " round the ring")
+                      << ", lambda_0 = " << r.eigenvalues.front() << "\n";
+    }
+    const auto tPictures = Clock::now();
+    const MemoryEstimate picturesMemory = estimatePictures(runs, a, limit);
+    const bool picturesOnly = resetPeakResident();
+    comparisonPicture(runs, a, (tmp / "comparison.png").string());
+    const double picturesPeak = peakResidentBytes();
+    inputPicture(*data.soup, a, (tmp / "input.png").string());  // after: the renderer's state it leaves is not the comparison's
+    const double secondsPictures = since(tPictures);
+    const double ell = makeSamples(data, {}).samples.lengthScale;
+    const double total = since(start);
+    writeSummary(runs, a, ell, total, (tmp / "summary.md").string());
+    nlohmann::json report = demoReport(runs, a, *data.soup, ell);
     report["timings_s"] = {{"pictures", secondsPictures}, {"total", total}};
     report["memory"] = stageReport("pictures", memoryStageReport(picturesMemory, picturesPeak, picturesOnly))["memory"];
     report["command_line"] = commandLine();

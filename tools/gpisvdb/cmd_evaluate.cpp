@@ -43,33 +43,23 @@ void addFlags(CLI::App& cmd, Args& a) {
     addStageFlags(cmd, a.stage);
 }
 
-/// `gpisvdb evaluate` once its flags are parsed.
-void execute(Args& a) {
-    const InputData data = readInput(a.input);
-    const std::vector<Vec3d> xs = readQueryPoints(a.at);
-    if (!std::isnan(a.iso) && !std::isfinite(a.iso)) throw ParameterError("--iso must be finite");
-    const QmcRule rule(a.qmc);
-    const double limit = memoryLimit(a.stage);
-    AtomicOutput out(a.output);
-    std::unique_ptr<AtomicOutput> reportOut;
-    if (!a.stage.report.empty()) reportOut = std::make_unique<AtomicOutput>(a.stage.report);
-    const LoadedModel m = loadModel(data, modelOptions(a.flags));
-    const double iso = std::isnan(a.iso) ? m.model->naturalIso() : a.iso;
-    // The evaluation's memory (docs/memory.md#evaluate): a ValueGradient per point (mean and covariance in
-    // double, 160 B) and, for the Barnes–Hut model, its Morton order (a 64-bit key and a 32-bit index, 16 B).
-    // The points themselves (24 B each) are read before, in the baseline.
-    const bool barnesHut = dynamic_cast<const BarnesHutGpis*>(m.model.get()) != nullptr;
-    const double perPoint = double(sizeof(ValueGradient)) + (barnesHut ? 16.0 : 0.0), n = double(xs.size());
+/// The evaluation's memory (docs/memory.md#evaluate): a ValueGradient per point (mean and covariance in double,
+/// 160 B) and, for the Barnes–Hut model, its Morton order (a 64-bit key and a 32-bit index, 16 B). The points
+/// themselves (24 B each) are read before, in the baseline.
+MemoryEstimate estimateEvaluation(double limit, const GpisModel& model, std::size_t count) {
+    const bool barnesHut = dynamic_cast<const BarnesHutGpis*>(&model) != nullptr;
+    const double perPoint = double(sizeof(ValueGradient)) + (barnesHut ? 16.0 : 0.0), n = double(count);
     std::vector<std::pair<std::string, double>> parts = {{"values", double(sizeof(ValueGradient)) * n}};
     if (barnesHut) parts.emplace_back("morton_order", 16.0 * n);
-    const MemoryEstimate memory = estimateStageWithin(limit, "evaluation of " + std::to_string(xs.size()) + " points",
-                                                      "libraries, input, model, points", std::move(parts), [&](double, double available) {
-                                                          return "split the query points (--at) into files of at most " +
-                                                                 numberText(std::floor(available / perPoint)) + " points";
-                                                      });
-    const bool stageOnly = resetPeakResident();
-    const auto values = m.model->evaluate(xs, makeProgress(a.flags.quiet));
-    std::ofstream csv(out.tempPath());
+    return estimateStageWithin(limit, "evaluation of " + std::to_string(count) + " points", "libraries, input, model, points",
+                               std::move(parts), [&](double, double available) {
+                                   return "split the query points (--at) into files of at most " +
+                                          numberText(std::floor(available / perPoint)) + " points";
+                               });
+}
+
+/// One row per point: the point, the mean and covariance of (φ, ∇φ), μ and T, and the probability of being inside.
+void writeRows(std::ostream& csv, const std::vector<Vec3d>& xs, const std::vector<ValueGradient>& values, double iso, const QmcRule& rule) {
     csv << "x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33,mu,Txx,Txy,Txz,Tyy,Tyz,Tzz,p_inside\n" << std::setprecision(17);
     for (std::size_t i = 0; i < xs.size(); ++i) {
         const ValueGradient& v = values[i];
@@ -83,6 +73,24 @@ void execute(Args& a) {
             for (int c = r; c < 3; ++c) csv << ',' << d.T(r, c);
         csv << ',' << insideProbability(v, iso) << '\n';
     }
+}
+
+/// `gpisvdb evaluate` once its flags are parsed.
+void execute(Args& a) {
+    const InputData data = readInput(a.input);
+    const std::vector<Vec3d> xs = readQueryPoints(a.at);
+    if (!std::isnan(a.iso) && !std::isfinite(a.iso)) throw ParameterError("--iso must be finite");
+    const QmcRule rule(a.qmc);
+    const double limit = memoryLimit(a.stage);
+    AtomicOutput out(a.output);
+    std::unique_ptr<AtomicOutput> reportOut = optionalOutput(a.stage.report);
+    const LoadedModel m = loadModel(data, modelOptions(a.flags));
+    const double iso = std::isnan(a.iso) ? m.model->naturalIso() : a.iso;
+    const MemoryEstimate memory = estimateEvaluation(limit, *m.model, xs.size());
+    const bool stageOnly = resetPeakResident();
+    const auto values = m.model->evaluate(xs, makeProgress(a.flags.quiet));
+    std::ofstream csv(out.tempPath());
+    writeRows(csv, xs, values, iso, rule);
     csv.close();
     if (!csv) throw OutputError(a.output + ": writing failed (disk full?)");
     const double peak = peakResidentBytes();

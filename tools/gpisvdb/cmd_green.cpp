@@ -37,6 +37,44 @@ void addFlags(CLI::App& cmd, Args& a) {
             std::map<std::string, Spill>{{"auto", Spill::Automatic}, {"always", Spill::Always}, {"never", Spill::Never}}));
 }
 
+/// Spill (docs/memory.md#spill): the band's own grids written ahead and their channels freed when asked, or, with
+/// auto, when that makes the solve's `parts` fit; refused as it stands (before any file is written) when even that
+/// would not. None when the grids stay in memory.
+std::unique_ptr<SpilledBandGrids> spillForSolve(const Args& a, BandCommand& run, const std::vector<std::pair<std::string, double>>& parts) {
+    Band& band = run.job.result.band;
+    double stageBytes = 0;
+    for (const auto& part : parts) stageBytes += part.second;
+    const double held = settledResidentBytes(), freed = spillableChannelBytes(band);
+    if (held - freed + stageBytes > run.job.maxMemory) {
+        estimateStage(run.job, "Green's function solve", parts);  // throws: it does not fit as it stands
+        return nullptr;
+    }
+    if (a.spill == Spill::Never || (a.spill == Spill::Automatic && held + stageBytes <= run.job.maxMemory)) return nullptr;
+    std::unique_ptr<SpilledBandGrids> spilled;
+    try {
+        spilled = std::make_unique<SpilledBandGrids>(band, run.out->tempPath() + ".grids", a.flags.vdb);
+    } catch (const OutputError& e) {
+        throw OutputError(std::string(e.what()) +
+                          " (the band's grids spilled before the solve; --spill never "
+                          "keeps them in memory instead)");
+    }
+    releaseSpilledChannels(band);
+    if (!a.flags.model.quiet)
+        std::cerr << "green: the band's grids are written ahead to " << spilled->path() << ", freeing " << numberText(freed / 1e6)
+                  << " MB for the solve\n";
+    return spilled;
+}
+
+/// The report: the band's, with the solve and the source.
+nlohmann::json greenReport(const BandJob& job, const Args& a, const GreenResult& g, const openvdb::Coord& y, bool spilled) {
+    nlohmann::json report = bandReport(job, a.flags);
+    report["solver"] = solverReport(g.solver, a.solver);
+    report["green"] = {
+        {"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}}, {"source_index", g.sourceIndex}, {"spilled_band_grids", spilled}};
+    report["outputs"] = {a.output};
+    return report;
+}
+
 /// `gpisvdb green` once its flags are parsed.
 void execute(Args& a, Clock::time_point start) {
     if (a.source.size() != 3 || !Vec3d(a.source[0], a.source[1], a.source[2]).allFinite())
@@ -45,35 +83,11 @@ void execute(Args& a, Clock::time_point start) {
     BandCommand run = startBandCommand(a.input, a.output, a.flags);
     const BandJob& job = run.job;
     Band& band = run.job.result.band;
-    // The operator's and the solve's memory: estimated and refused before they allocate, measured over them
-    // (docs/memory.md). The matrix-free L is what the PCG applies; the aggregation multigrid sums L's edges
-    // into its coarse levels; hypre's set-up assembles L and keeps only its hierarchy; the incomplete
-    // Cholesky assembles L and keeps its factor.
+    // The operator's and the solve's memory, estimated and refused before they allocate (docs/memory.md)
     const Preconditioner preconditioner =
         resolvePreconditioner(a.solver.preconditioner, band.size(), /*assemblable*/ true, /*bandLaplacian*/ true);
     std::vector<std::pair<std::string, double>> parts = greenSolveBytes(band.size(), a.solver, preconditioner);
-    // === Spill: the band's own grids written ahead and their channels freed (docs/memory.md#spill); auto
-    //     spills when that makes the solve fit (else the estimate below refuses it as it stands)
-    double stageBytes = 0;
-    for (const auto& part : parts) stageBytes += part.second;
-    const double held = settledResidentBytes(), freed = spillableChannelBytes(band);
-    const bool fitsSpilled = held - freed + stageBytes <= job.maxMemory;
-    std::unique_ptr<SpilledBandGrids> spilled;
-    if (!fitsSpilled) {
-        estimateStage(job, "Green's function solve", parts);  // refused as it stands, before any file is written
-    } else if (a.spill == Spill::Always || (a.spill == Spill::Automatic && held + stageBytes > job.maxMemory)) {
-        try {
-            spilled = std::make_unique<SpilledBandGrids>(band, run.out->tempPath() + ".grids", a.flags.vdb);
-        } catch (const OutputError& e) {
-            throw OutputError(std::string(e.what()) +
-                              " (the band's grids spilled before the solve; --spill never "
-                              "keeps them in memory instead)");
-        }
-        releaseSpilledChannels(band);
-        if (!a.flags.model.quiet)
-            std::cerr << "green: the band's grids are written ahead to " << spilled->path() << ", freeing " << numberText(freed / 1e6)
-                      << " MB for the solve\n";
-    }
+    const std::unique_ptr<SpilledBandGrids> spilled = spillForSolve(a, run, parts);
     const MemoryEstimate memory = estimateStage(job, "Green's function solve", std::move(parts));
     const bool stageOnly = resetPeakResident();
     const auto tOps = Clock::now();
@@ -92,16 +106,10 @@ void execute(Args& a, Clock::time_point start) {
     run.out->commit();
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (run.report) {
-        nlohmann::json report = bandReport(job, a.flags);
-        report["solver"] = solverReport(g.solver, a.solver);
+        nlohmann::json report = greenReport(job, a, g, y, bool(spilled));
         report["memory"]["stages"] = {{"green", memoryStageReport(memory, solvePeak, stageOnly)}};
-        report["green"] = {{"source", a.source},
-                           {"source_voxel", {y.x(), y.y(), y.z()}},
-                           {"source_index", g.sourceIndex},
-                           {"spilled_band_grids", bool(spilled)}};
         report["timings_s"] = {
             {"model", job.secondsModel}, {"band", job.secondsBand}, {"operators", secondsOps}, {"solve", secondsSolve}, {"total", total}};
-        report["outputs"] = {a.output};
         commitReport(*run.report, report);
     }
     if (!a.flags.model.quiet)

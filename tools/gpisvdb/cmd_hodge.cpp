@@ -57,6 +57,38 @@ void addFlags(CLI::App& cmd, Args& a) {
     addSolverFlags(cmd, a.solver, SolverFlags::ToleranceOnly);
 }
 
+/// The vector field to decompose: a preset's, or one read from a .vdb (vector grid, or three float grids).
+std::vector<float> inputField(const Args& a, const Band& band) {
+    if (a.preset.empty()) return readField(a.field, band);
+    const HodgePreset p = a.preset == "rotation"   ? HodgePreset::Rotation
+                          : a.preset == "gradient" ? HodgePreset::Gradient
+                                                   : HodgePreset::Mixed;
+    return hodgePreset(band, p);
+}
+
+openvdb::MetaMap hodgeMetadata(const Args& a, const BandJob& job, const HodgeResult& r) {
+    openvdb::MetaMap meta = bandMetadata(job, a.flags);
+    meta.insertMeta("hodge_field", openvdb::StringMetadata(a.preset.empty() ? a.field : "preset:" + a.preset));
+    meta.insertMeta("hodge_boundary", openvdb::StringMetadata(a.boundary));
+    meta.insertMeta("hodge_divergence_residual", openvdb::DoubleMetadata(r.divergenceResidual));
+    meta.insertMeta("hodge_s_inner_product", openvdb::DoubleMetadata(r.sInnerProduct));
+    meta.insertMeta("solver_iterations", openvdb::Int32Metadata(r.solver.iterations));
+    meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(r.solver.relativeResidual));
+    meta.insertMeta("solver_float_residual", openvdb::DoubleMetadata(r.solver.floatResidual));
+    meta.insertMeta("solver_refinements", openvdb::Int32Metadata(r.solver.refinements));
+    return meta;
+}
+
+nlohmann::json hodgeSection(const Args& a, const Band& band, const std::vector<float>& V, const HodgeResult& r) {
+    return {{"field", a.preset.empty() ? a.field : "preset:" + a.preset},
+            {"boundary", a.boundary},
+            {"divergence_residual", r.divergenceResidual},
+            {"s_inner_product", r.sInnerProduct},
+            {"s_norm_input", std::sqrt(sInnerProduct(band, V, V))},
+            {"s_norm_gradient", std::sqrt(sInnerProduct(band, r.gradient, r.gradient))},
+            {"s_norm_free", std::sqrt(sInnerProduct(band, r.free, r.free))}};
+}
+
 /// `gpisvdb hodge` once its flags are parsed.
 void execute(Args& a, Clock::time_point start) {
     if (a.field.empty() == a.preset.empty())
@@ -67,18 +99,9 @@ void execute(Args& a, Clock::time_point start) {
     const Band& band = job.result.band;
 
     // === The field on the band, then the decomposition
-    std::vector<float> V;
-    if (!a.preset.empty()) {
-        const HodgePreset p = a.preset == "rotation"   ? HodgePreset::Rotation
-                              : a.preset == "gradient" ? HodgePreset::Gradient
-                                                       : HodgePreset::Mixed;
-        V = hodgePreset(band, p);
-    } else {
-        V = readField(a.field, band);
-    }
+    const std::vector<float> V = inputField(a, band);
     HodgeOptions ho;
-    ho.solver = a.solver;
-    ho.boundary = a.boundary == "dirichlet" ? Boundary::Dirichlet : Boundary::Neumann;
+    ho.solver = a.solver, ho.boundary = a.boundary == "dirichlet" ? Boundary::Dirichlet : Boundary::Neumann;
     // The decomposition's memory: estimated and refused before it allocates, measured over it (docs/memory.md)
     const MemoryEstimate memory = estimateStage(job, "Hodge decomposition", {{"hodge", hodgeBytes(band.size(), ho)}});
     const bool stageOnly = resetPeakResident();
@@ -88,15 +111,7 @@ void execute(Args& a, Clock::time_point start) {
     const double solvePeak = peakResidentBytes();
     requireConverged(r.solver, a.solver);
 
-    openvdb::MetaMap meta = bandMetadata(job, a.flags);
-    meta.insertMeta("hodge_field", openvdb::StringMetadata(a.preset.empty() ? a.field : "preset:" + a.preset));
-    meta.insertMeta("hodge_boundary", openvdb::StringMetadata(a.boundary));
-    meta.insertMeta("hodge_divergence_residual", openvdb::DoubleMetadata(r.divergenceResidual));
-    meta.insertMeta("hodge_s_inner_product", openvdb::DoubleMetadata(r.sInnerProduct));
-    meta.insertMeta("solver_iterations", openvdb::Int32Metadata(r.solver.iterations));
-    meta.insertMeta("solver_relative_residual", openvdb::DoubleMetadata(r.solver.relativeResidual));
-    meta.insertMeta("solver_float_residual", openvdb::DoubleMetadata(r.solver.floatResidual));
-    meta.insertMeta("solver_refinements", openvdb::Int32Metadata(r.solver.refinements));
+    const openvdb::MetaMap meta = hodgeMetadata(a, job, r);
     writeBandVdb(band, run.out->tempPath(), meta, {{"hodge_potential", &r.potential}},
                  {{"hodge_input", &V}, {"hodge_gradient", &r.gradient}, {"hodge_free", &r.free}}, a.flags.vdb);
     run.out->commit();
@@ -105,13 +120,7 @@ void execute(Args& a, Clock::time_point start) {
         nlohmann::json report = bandReport(job, a.flags);
         report["solver"] = solverReport(r.solver, a.solver);
         report["memory"]["stages"] = {{"hodge", memoryStageReport(memory, solvePeak, stageOnly)}};
-        report["hodge"] = {{"field", a.preset.empty() ? a.field : "preset:" + a.preset},
-                           {"boundary", a.boundary},
-                           {"divergence_residual", r.divergenceResidual},
-                           {"s_inner_product", r.sInnerProduct},
-                           {"s_norm_input", std::sqrt(sInnerProduct(band, V, V))},
-                           {"s_norm_gradient", std::sqrt(sInnerProduct(band, r.gradient, r.gradient))},
-                           {"s_norm_free", std::sqrt(sInnerProduct(band, r.free, r.free))}};
+        report["hodge"] = hodgeSection(a, band, V, r);
         report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve}, {"total", total}};
         report["outputs"] = {a.output};
         commitReport(*run.report, report);

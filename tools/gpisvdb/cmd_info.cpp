@@ -106,6 +106,37 @@ void addFlags(CLI::App& cmd, Args& a) {
         ->capture_default_str();
 }
 
+/// The samples (a triangle's or a point's position, normal and their covariances), described on stdout: estimated and
+/// refused before they are made, measured over it (docs/memory.md#info). The input, read in whole before, is the
+/// baseline; no setting makes fewer samples. The report's samples stage and input; the samples are freed on return
+/// (the band command holds the input and the model only).
+nlohmann::json describeSamples(const InputData& data, const ModelFlags& flags, double limit) {
+    const MemoryEstimate memory = estimateStageWithin(limit, "sampling of the input", "libraries, the input", makeSamplesBytes(data),
+                                                      [](double, double) { return std::string("raise it"); });
+    const bool stageOnly = resetPeakResident();
+    const InputSamples s = makeSamples(data, {flags.sigmaRel});
+    const double peak = peakResidentBytes();
+    Vec3d lo = s.samples.position[0], hi = lo;
+    for (const auto& p : s.samples.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    const double ell = s.samples.lengthScale;
+    std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
+              << "samples:      " << s.samples.size() << "\n"
+              << "length scale: " << ell
+              << (s.isSoup             ? " (mean edge length)"
+                  : s.lengthScaleGiven ? " (given in the file)"
+                                       : " (sqrt(area / points))")
+              << "\n"
+              << "bbox min:     " << lo.transpose() << "\n"
+              << "bbox max:     " << hi.transpose() << "\n"
+              << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"
+              << "smoothing:    " << flags.smoothingRel << " x l = " << flags.smoothingRel * ell << "\n"
+              << "skipped:      " << s.degenerateSkipped << " zero-area triangles\n"
+              << "triangulated: " << data.polygonsTriangulated << " polygons with more than 3 corners (fans)\n";
+    nlohmann::json report = stageReport("samples", memoryStageReport(memory, peak, stageOnly));
+    report["input"] = {{"path", data.path}, {"samples", s.samples.size()}, {"kind", s.isSoup ? "triangle soup" : "oriented point cloud"}};
+    return report;
+}
+
 /// `gpisvdb info` once its flags are parsed.
 void execute(Args& a) {
     const ModelFlags& flags = a.flags.model;
@@ -115,39 +146,8 @@ void execute(Args& a) {
     const auto start = Clock::now();
     const InputData data = readInput(a.input);
     const double readSeconds = since(start);
-    std::unique_ptr<AtomicOutput> reportOut;
-    if (!a.flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a.flags.report);
-    nlohmann::json report;
-    {
-        // === The samples (a triangle's or a point's position, normal and their covariances): estimated and
-        //     refused before they are made, measured over it (docs/memory.md#info). The input, read in whole
-        //     before, is the baseline; no setting makes fewer samples.
-        const MemoryEstimate memory = estimateStageWithin(limit, "sampling of the input", "libraries, the input", makeSamplesBytes(data),
-                                                          [](double, double) { return std::string("raise it"); });
-        const bool stageOnly = resetPeakResident();
-        const InputSamples s = makeSamples(data, {flags.sigmaRel});
-        const double peak = peakResidentBytes();
-        Vec3d lo = s.samples.position[0], hi = lo;
-        for (const auto& p : s.samples.position) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-        const double ell = s.samples.lengthScale;
-        std::cout << "input:        " << data.path << " (" << (s.isSoup ? "triangle soup" : "oriented point cloud") << ")\n"
-                  << "samples:      " << s.samples.size() << "\n"
-                  << "length scale: " << ell
-                  << (s.isSoup             ? " (mean edge length)"
-                      : s.lengthScaleGiven ? " (given in the file)"
-                                           : " (sqrt(area / points))")
-                  << "\n"
-                  << "bbox min:     " << lo.transpose() << "\n"
-                  << "bbox max:     " << hi.transpose() << "\n"
-                  << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"
-                  << "smoothing:    " << flags.smoothingRel << " x l = " << flags.smoothingRel * ell << "\n"
-                  << "skipped:      " << s.degenerateSkipped << " zero-area triangles\n"
-                  << "triangulated: " << data.polygonsTriangulated << " polygons with more than 3 corners (fans)\n";
-        report = stageReport("samples", memoryStageReport(memory, peak, stageOnly));
-        report["input"] = {
-            {"path", data.path}, {"samples", s.samples.size()}, {"kind", s.isSoup ? "triangle soup" : "oriented point cloud"}};
-    }
-    // (the samples are freed first: the band command holds the input and the model only)
+    std::unique_ptr<AtomicOutput> reportOut = optionalOutput(a.flags.report);
+    nlohmann::json report = describeSamples(data, flags, limit);
     if (a.forCommand != "band" && !a.flags.maxBandVoxelsGiven) eigenBandBudget(a.flags);
     if (a.forecast) report["forecast"] = forecastDefaultBand(data, readSeconds, a.flags, a.forCommand);
     if (reportOut) commitReport(*reportOut, report);

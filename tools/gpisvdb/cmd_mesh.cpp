@@ -33,6 +33,17 @@ void addFlags(CLI::App& cmd, Args& a) {
     addStageFlags(cmd, a.stage);
 }
 
+/// The surface's memory (docs/memory.md#mesh): its parts go as h⁻² (the mesh) to h⁻³ (u − γ over the band), so a
+/// band rebuilt at h √(need / available) fits.
+MemoryEstimate estimateMesh(double limit, const openvdb::FloatGrid& mean, double iso, int components, MeshFormat format) {
+    const double h = mean.voxelSize()[0];
+    return estimateStageWithin(limit, "mean surface", "libraries, the .vdb file",
+                               meanSurfaceBytes(mean, iso, components, format == MeshFormat::Vtp), [&](double need, double available) {
+                                   return "rebuild the band with a voxel size (--voxel-size) of " +
+                                          numberText(h * std::sqrt(need / available) * 1.05) + " or larger";
+                               });
+}
+
 /// `gpisvdb mesh` once its flags are parsed.
 void execute(Args& a) {
     if (!std::isnan(a.iso) && !std::isfinite(a.iso)) throw ParameterError("--iso must be finite");
@@ -48,17 +59,8 @@ void execute(Args& a) {
         components += sampled.back()->isType<openvdb::Vec3SGrid>() ? 3 : 1;
     }
     AtomicOutput out(a.output);
-    std::unique_ptr<AtomicOutput> reportOut;
-    if (!a.stage.report.empty()) reportOut = std::make_unique<AtomicOutput>(a.stage.report);
-    // The surface's memory (docs/memory.md#mesh): its parts go as h⁻² (the mesh) to h⁻³ (u − γ over the
-    // band), so a band rebuilt at h √(need / available) fits
-    const double h = mean->voxelSize()[0];
-    const MemoryEstimate memory =
-        estimateStageWithin(limit, "mean surface", "libraries, the .vdb file",
-                            meanSurfaceBytes(*mean, a.iso, components, format == MeshFormat::Vtp), [&](double need, double available) {
-                                return "rebuild the band with a voxel size (--voxel-size) of " +
-                                       numberText(h * std::sqrt(need / available) * 1.05) + " or larger";
-                            });
+    std::unique_ptr<AtomicOutput> reportOut = optionalOutput(a.stage.report);
+    const MemoryEstimate memory = estimateMesh(limit, *mean, a.iso, components, format);
     const bool stageOnly = resetPeakResident();
     SurfaceMesh mesh = meanSurface(*mean, a.iso);
     if (mesh.triangles.empty()) throw InputError(a.input + ": the mean field never crosses u = " + std::to_string(a.iso) + " in the band");

@@ -50,96 +50,119 @@ void addFlags(CLI::App& cmd, Args& a) {
     addStageFlags(cmd, a.stage);
 }
 
-/// `gpisvdb query` once its flags are parsed.
-void execute(Args& a) {
+/// What is queried: one of rays, points or a mesh (`kind` names which).
+struct Queries {
+    std::string kind;
+    std::vector<Ray> rays;
+    std::vector<Vec3d> points;
+    std::optional<InputData> mesh;
+};
+
+void checkFlags(const Args& a) {
     if (a.rays.empty() + a.points.empty() + a.mesh.empty() != 2) throw ParameterError("give one of --rays, --points or --mesh");
     if (!std::isnan(a.iso) && !std::isfinite(a.iso)) throw ParameterError("--iso must be finite");
     if (!std::isnan(a.step) && (!(a.step > 0) || !std::isfinite(a.step))) throw ParameterError("--step must be finite and > 0");
     if (!a.mesh.empty() && a.flags.model != "winding") throw ParameterError("--mesh draws the winding-number model only (--model winding)");
     if (a.draws < 1 || a.draws > 10000) throw ParameterError("--draws must be between 1 and 10000");
-    const InputData data = readInput(a.input);
-    std::vector<Ray> rayList;
-    std::vector<Vec3d> pointList;
-    std::optional<InputData> meshData;
+}
+
+Queries readQueries(const Args& a) {
+    Queries q;
     if (!a.rays.empty()) {
         for (const auto& r : readNumberRows(a.rays, 7, "rays", "ox oy oz dx dy dz length")) {
             Ray ray{Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5]), r[6]};
             if (!(ray.direction.norm() > 0)) throw InputError(a.rays + ": a ray has a zero direction");
             if (!(ray.length > 0)) throw InputError(a.rays + ": a ray has a length <= 0");
-            rayList.push_back(ray);
+            q.rays.push_back(ray);
         }
     } else if (!a.points.empty()) {
-        for (const auto& r : readNumberRows(a.points, 3, "points", "x y z", /*extraIgnored*/ true))
-            pointList.emplace_back(r[0], r[1], r[2]);
+        for (const auto& r : readNumberRows(a.points, 3, "points", "x y z", /*extraIgnored*/ true)) q.points.emplace_back(r[0], r[1], r[2]);
     } else {
-        meshData = readInput(a.mesh);
-        if (!meshData->soup) throw InputError(a.mesh + ": not a triangle mesh (a point cloud)");
+        q.mesh = readInput(a.mesh);
+        if (!q.mesh->soup) throw InputError(a.mesh + ": not a triangle mesh (a point cloud)");
     }
+    q.kind = !q.rays.empty() ? "rays" : !q.points.empty() ? "points" : "mesh";
+    return q;
+}
+
+/// The stage's memory: the model's values at the points evaluated at once (rays: a batch of at most 2^18 points or
+/// one whole ray, whichever is larger; points: all), and for a mesh its sample points and the draws' noise and tree
+/// (≤ 256 MB).
+std::vector<std::pair<std::string, double>> queryBytes(const Queries& q, double step) {
+    if (q.kind == "rays") {
+        std::size_t largest = 0;
+        for (const Ray& r : q.rays) largest = std::max(largest, rayPointCount(r, step));
+        return {{"values", (kEvaluatedPointBytes + 24.0) * double((std::size_t(1) << 18) + largest)}};
+    }
+    if (q.kind == "points") return {{"values", kEvaluatedPointBytes * double(q.points.size())}};
+    const double points = double(meshSamplePointCount(q.mesh->soup->vertices, q.mesh->soup->triangles, step));
+    return {{"values", (kEvaluatedPointBytes + 24.0 + 8.0) * points}, {"draws", 256e6}};
+}
+
+nlohmann::json writeRayHits(const GpisModel& model, const std::vector<Ray>& rays, double iso, double step, const Progress& progress,
+                            std::ostream& csv) {
+    RayQueryOptions o;
+    o.iso = iso, o.step = step;
+    const std::vector<RayHit> hits = queryRays(model, rays, o, progress);
+    csv << "ox,oy,oz,dx,dy,dz,length,p_inside_origin,p_hit,hit_distance,hit_distance_std\n";
+    for (std::size_t i = 0; i < hits.size(); ++i) {
+        const Ray& r = rays[i];
+        csv << r.origin.x() << ',' << r.origin.y() << ',' << r.origin.z() << ',' << r.direction.x() << ',' << r.direction.y() << ','
+            << r.direction.z() << ',' << r.length << ',' << hits[i].insideAtOrigin << ',' << hits[i].hit << ',' << hits[i].expected << ','
+            << hits[i].stddev << '\n';
+    }
+    return {{"rays", rays.size()}, {"step", step}};
+}
+
+nlohmann::json writePointsInside(const GpisModel& model, const std::vector<Vec3d>& points, double iso, const Progress& progress,
+                                 std::ostream& csv) {
+    const std::vector<ValueGradient> values = model.evaluate(points, progress);
+    csv << "x,y,z,p_inside,gamma,stddev\n";
+    for (std::size_t i = 0; i < values.size(); ++i)
+        csv << points[i].x() << ',' << points[i].y() << ',' << points[i].z() << ',' << insideProbability(values[i], iso) << ','
+            << values[i].mean[0] << ',' << std::sqrt(std::max(values[i].cov(0, 0), 0.0)) << '\n';
+    return {{"points", points.size()}};
+}
+
+nlohmann::json writeCollision(const Args& a, const LoadedModel& m, const TriangleSoup& mesh, double iso, double step,
+                              const Progress& progress, std::ostream& csv) {
+    CollisionOptions o;
+    o.draws = a.draws, o.seed = a.seed, o.step = step, o.iso = iso;
+    const CollisionResult c = collisionProbability(*m.model, m.input.samples, m.smoothing, mesh.vertices, mesh.triangles, o, progress);
+    csv << "points,p_collision,standard_error,largest_point_p_inside\n"
+        << c.points << ',' << c.probability << ',' << c.standardError << ',' << c.largestInside << '\n';
+    if (!a.flags.quiet)
+        std::cerr << "query: P(collision) " << c.probability << " +- " << c.standardError << " over " << a.draws << " draws, " << c.points
+                  << " points on the mesh\n";
+    return {{"mesh", a.mesh},
+            {"points", c.points},
+            {"step", step},
+            {"draws", a.draws},
+            {"seed", a.seed},
+            {"p_collision", c.probability},
+            {"standard_error", c.standardError}};
+}
+
+/// `gpisvdb query` once its flags are parsed.
+void execute(Args& a) {
+    checkFlags(a);
+    const InputData data = readInput(a.input);
+    const Queries q = readQueries(a);
     const double limit = memoryLimit(a.stage);
     AtomicOutput out(a.output);
-    std::unique_ptr<AtomicOutput> reportOut;
-    if (!a.stage.report.empty()) reportOut = std::make_unique<AtomicOutput>(a.stage.report);
+    std::unique_ptr<AtomicOutput> reportOut = optionalOutput(a.stage.report);
     const LoadedModel m = loadModel(data, modelOptions(a.flags));
     const double iso = std::isnan(a.iso) ? m.model->naturalIso() : a.iso;
     const Progress progress = makeProgress(a.flags.quiet);
     std::ofstream csv(out.tempPath());
     csv << std::setprecision(17);
-    nlohmann::json section;
-    const std::string kind = !rayList.empty() ? "rays" : !pointList.empty() ? "points" : "mesh";
-    // The stage's memory: the model's values at the points evaluated at once (rays: a batch of at most 2^18
-    // points; points: all), and for a mesh its sample points and the draws' noise and tree (≤ 256 MB)
-    std::vector<std::pair<std::string, double>> parts;
-    if (kind == "rays") {  // batches of 2^18 points or one whole ray, whichever is larger
-        std::size_t largest = 0;
-        for (const Ray& r : rayList) largest = std::max(largest, rayPointCount(r, !std::isnan(a.step) ? a.step : m.smoothing / 4));
-        parts = {{"values", (kEvaluatedPointBytes + 24.0) * double((std::size_t(1) << 18) + largest)}};
-    }
-    if (kind == "points") parts = {{"values", kEvaluatedPointBytes * double(pointList.size())}};
-    const double step = !std::isnan(a.step) ? a.step : m.smoothing / (kind == "mesh" ? 2.0 : 4.0);
-    if (kind == "mesh") {
-        const double points = double(meshSamplePointCount(meshData->soup->vertices, meshData->soup->triangles, step));
-        parts = {{"values", (kEvaluatedPointBytes + 24.0 + 8.0) * points}, {"draws", 256e6}};
-    }
-    const MemoryEstimate memory = estimateStageWithin(limit, "query", "libraries, input, model", parts,
+    const double step = !std::isnan(a.step) ? a.step : m.smoothing / (q.kind == "mesh" ? 2.0 : 4.0);
+    const MemoryEstimate memory = estimateStageWithin(limit, "query", "libraries, input, model", queryBytes(q, step),
                                                       [](double, double) { return std::string("query fewer rays or points"); });
     const bool stageOnly = resetPeakResident();
-    if (kind == "rays") {
-        RayQueryOptions o;
-        o.iso = iso, o.step = step;
-        const std::vector<RayHit> hits = queryRays(*m.model, rayList, o, progress);
-        csv << "ox,oy,oz,dx,dy,dz,length,p_inside_origin,p_hit,hit_distance,hit_distance_std\n";
-        for (std::size_t i = 0; i < hits.size(); ++i) {
-            const Ray& r = rayList[i];
-            csv << r.origin.x() << ',' << r.origin.y() << ',' << r.origin.z() << ',' << r.direction.x() << ',' << r.direction.y() << ','
-                << r.direction.z() << ',' << r.length << ',' << hits[i].insideAtOrigin << ',' << hits[i].hit << ',' << hits[i].expected
-                << ',' << hits[i].stddev << '\n';
-        }
-        section = {{"rays", rayList.size()}, {"step", step}};
-    } else if (kind == "points") {
-        const std::vector<ValueGradient> values = m.model->evaluate(pointList, progress);
-        csv << "x,y,z,p_inside,gamma,stddev\n";
-        for (std::size_t i = 0; i < values.size(); ++i)
-            csv << pointList[i].x() << ',' << pointList[i].y() << ',' << pointList[i].z() << ',' << insideProbability(values[i], iso) << ','
-                << values[i].mean[0] << ',' << std::sqrt(std::max(values[i].cov(0, 0), 0.0)) << '\n';
-        section = {{"points", pointList.size()}};
-    } else {
-        CollisionOptions o;
-        o.draws = a.draws, o.seed = a.seed, o.step = step, o.iso = iso;
-        const CollisionResult c =
-            collisionProbability(*m.model, m.input.samples, m.smoothing, meshData->soup->vertices, meshData->soup->triangles, o, progress);
-        csv << "points,p_collision,standard_error,largest_point_p_inside\n"
-            << c.points << ',' << c.probability << ',' << c.standardError << ',' << c.largestInside << '\n';
-        section = {{"mesh", a.mesh},
-                   {"points", c.points},
-                   {"step", step},
-                   {"draws", a.draws},
-                   {"seed", a.seed},
-                   {"p_collision", c.probability},
-                   {"standard_error", c.standardError}};
-        if (!a.flags.quiet)
-            std::cerr << "query: P(collision) " << c.probability << " +- " << c.standardError << " over " << a.draws << " draws, "
-                      << c.points << " points on the mesh\n";
-    }
+    const nlohmann::json section = q.kind == "rays"     ? writeRayHits(*m.model, q.rays, iso, step, progress, csv)
+                                   : q.kind == "points" ? writePointsInside(*m.model, q.points, iso, progress, csv)
+                                                        : writeCollision(a, m, *q.mesh->soup, iso, step, progress, csv);
     csv.close();
     if (!csv) throw OutputError(a.output + ": writing failed (disk full?)");
     const double peak = peakResidentBytes();

@@ -52,8 +52,8 @@ void addFlags(CLI::App& cmd, Args& a) {
     addStageFlags(cmd, a.stage);
 }
 
-/// `gpisvdb render` once its flags are parsed.
-void execute(Args& a) {
+/// The flags checked, before the file is read: the panel every picture starts from, and the slice asked for.
+RenderPanel checkedBasePanel(const Args& a, std::optional<SliceSpec>& slice) {
     RenderPanel base;
     base.array = a.grid;
     base.colormap = colormapOf(a.colormap);
@@ -65,7 +65,6 @@ void execute(Args& a) {
         if (a.logScale && !(a.range[0] > 0)) throw ParameterError("--range with --log needs LO > 0");
         base.range = {a.range[0], a.range[1]};
     }
-    std::optional<SliceSpec> slice;
     if (!a.slice.empty()) slice = sliceOf(a.slice);
     for (double v : a.view)
         if (!std::isfinite(v)) throw ParameterError("--view needs finite angles");
@@ -76,6 +75,74 @@ void execute(Args& a) {
             throw ParameterError("--size: picture panels must be whole numbers of 64 to 8192 pixels wide and high, got " +
                                  numberText(a.size[0]) + "," + numberText(a.size[1]));
     if (std::filesystem::path(a.output).extension() != ".png") throw ParameterError(a.output + ": the picture is written as .png");
+    return base;
+}
+
+/// Memory (docs/memory.md#render): the mean surface with the grid sampled on it and VTK's copy, the offscreen window
+/// (8 samples of colour and depth per pixel) and the picture, per panel, and the OpenGL context; estimated and
+/// refused before any of it is allocated.
+MemoryEstimate estimateRender(const Args& a, double limit, const VdbFile& file, bool hasMean, double iso, double pixels, double h) {
+    std::vector<std::pair<std::string, double>> parts;
+    double vertices = 0;
+    if (hasMean) parts = meanSurfaceBytes(*file.floatGrid("mean"), iso, 1, true, &vertices);
+    parts.emplace_back("vtk_surface", vertices * kRenderBytesPerVertex);
+    parts.emplace_back("gl_context", kRenderContextBytes);
+    double fixedBytes = 0;  // what a smaller picture does not shrink
+    for (const auto& p : parts) fixedBytes += p.second;
+    parts.emplace_back("window", pixels * kRenderBytesPerPixel);
+    return estimateStageWithin(limit, "render", "libraries, the .vdb file", std::move(parts), [&](double, double available) {
+        const double window = pixels * kRenderBytesPerPixel, surface = fixedBytes - kRenderContextBytes;
+        const double scale = available > fixedBytes ? std::sqrt((available - fixedBytes) / window) * 0.95 : 0;
+        if (std::floor(a.size[0] * scale) >= 64 && std::floor(a.size[1] * scale) >= 64) {
+            // the window's bytes go as the pixels; --size takes 64 pixels at least
+            return "use --size " + numberText(std::floor(a.size[0] * scale)) + "," + numberText(std::floor(a.size[1] * scale)) +
+                   " or smaller";
+        }
+        if (available > kRenderContextBytes + window)  // the surface's go as h⁻² to h⁻³
+            return "rebuild the band with a voxel size (--voxel-size) of " +
+                   numberText(h * std::sqrt(surface / (available - kRenderContextBytes - window)) * 1.05) + " or larger";
+        return "raise it (the renderer alone holds about " + numberText(kRenderContextBytes / 1e6) + " MB)";
+    });
+}
+
+/// The surface's panel (which fills `surface`) and the slice's, each as asked.
+std::vector<RenderPanel> makePanels(const Args& a, const RenderPanel& base, const VdbFile& file, const openvdb::FloatGrid& grid,
+                                    bool hasMean, double iso, const std::optional<SliceSpec>& slice, std::vector<std::vector<Vec3d>> paths,
+                                    SurfaceMesh& surface) {
+    std::vector<RenderPanel> panels;
+    if (hasMean) {
+        surface = meanSurface(*file.floatGrid("mean"), iso);
+        if (surface.triangles.empty()) throw InputError(a.input + ": the mean field never crosses the iso-value in the band");
+        sampleAtVertices(surface, grid);
+        RenderPanel p = base;
+        p.title = a.title.empty() ? a.grid : a.title;
+        p.surface = &surface;
+        p.paths = std::move(paths);
+        panels.push_back(p);
+    }
+    if (slice) {
+        RenderPanel p = base;
+        p.title = a.grid + " on the slice " + a.slice;
+        if (!hasMean && !a.title.empty()) p.title = a.title;
+        p.sliceGrid = &grid;
+        p.slice = *slice;
+        panels.push_back(p);
+    }
+    if (panels.size() == 2 && !(a.range.size() == 2)) {  // surface and slice share the grid's colours
+        float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+        for (auto v = grid.cbeginValueOn(); v; ++v)
+            if (std::isfinite(*v) && (!a.logScale || *v > 0)) lo = std::min(lo, *v), hi = std::max(hi, *v);
+        if (a.symmetric) hi = std::max(std::abs(lo), std::abs(hi)), lo = -hi;
+        if (lo < hi)
+            for (RenderPanel& p : panels) p.range = {lo, hi};
+    }
+    return panels;
+}
+
+/// `gpisvdb render` once its flags are parsed.
+void execute(Args& a) {
+    std::optional<SliceSpec> slice;
+    const RenderPanel base = checkedBasePanel(a, slice);
     const double limit = memoryLimit(a.stage);
     const VdbFile file = VdbFile::read(a.input);
     const auto grid = file.floatGrid(a.grid);
@@ -85,68 +152,15 @@ void execute(Args& a) {
     std::vector<std::vector<Vec3d>> paths;
     if (!a.paths.empty()) paths = readPolylines(a.paths);
     AtomicOutput out(a.output);
-    std::unique_ptr<AtomicOutput> reportOut;
-    if (!a.stage.report.empty()) reportOut = std::make_unique<AtomicOutput>(a.stage.report);
+    std::unique_ptr<AtomicOutput> reportOut = optionalOutput(a.stage.report);
 
-    // === Memory (docs/memory.md#render): the mean surface with the grid sampled on it and VTK's copy, the
-    //     offscreen window (8 samples of colour and depth per pixel) and the picture, per panel, and the
-    //     OpenGL context; estimated and refused before any of it is allocated
     const double iso = std::isnan(a.iso) ? file.iso() : a.iso;
-    const int panelCount = int(hasMean) + int(bool(slice));
-    const double pixels = a.size[0] * a.size[1] * double(panelCount);
-    std::vector<std::pair<std::string, double>> parts;
-    double vertices = 0;
-    if (hasMean) parts = meanSurfaceBytes(*file.floatGrid("mean"), iso, 1, true, &vertices);
-    parts.emplace_back("vtk_surface", vertices * kRenderBytesPerVertex);
-    parts.emplace_back("gl_context", kRenderContextBytes);
-    double fixedBytes = 0;  // what a smaller picture does not shrink
-    for (const auto& p : parts) fixedBytes += p.second;
-    parts.emplace_back("window", pixels * kRenderBytesPerPixel);
-    const double h = grid->voxelSize()[0];
-    const MemoryEstimate memory =
-        estimateStageWithin(limit, "render", "libraries, the .vdb file", std::move(parts), [&](double, double available) {
-            const double window = pixels * kRenderBytesPerPixel, surface = fixedBytes - kRenderContextBytes;
-            const double scale = available > fixedBytes ? std::sqrt((available - fixedBytes) / window) * 0.95 : 0;
-            if (std::floor(a.size[0] * scale) >= 64 && std::floor(a.size[1] * scale) >= 64) {
-                // the window's bytes go as the pixels; --size takes 64 pixels at least
-                return "use --size " + numberText(std::floor(a.size[0] * scale)) + "," + numberText(std::floor(a.size[1] * scale)) +
-                       " or smaller";
-            }
-            if (available > kRenderContextBytes + window)  // the surface's go as h⁻² to h⁻³
-                return "rebuild the band with a voxel size (--voxel-size) of " +
-                       numberText(h * std::sqrt(surface / (available - kRenderContextBytes - window)) * 1.05) + " or larger";
-            return "raise it (the renderer alone holds about " + numberText(kRenderContextBytes / 1e6) + " MB)";
-        });
+    const double pixels = a.size[0] * a.size[1] * double(int(hasMean) + int(bool(slice)));
+    const MemoryEstimate memory = estimateRender(a, limit, file, hasMean, iso, pixels, grid->voxelSize()[0]);
     const bool stageOnly = resetPeakResident();
 
     SurfaceMesh surface;
-    std::vector<RenderPanel> panels;
-    if (hasMean) {
-        surface = meanSurface(*file.floatGrid("mean"), iso);
-        if (surface.triangles.empty()) throw InputError(a.input + ": the mean field never crosses the iso-value in the band");
-        sampleAtVertices(surface, *grid);
-        RenderPanel p = base;
-        p.title = a.title.empty() ? a.grid : a.title;
-        p.surface = &surface;
-        p.paths = paths;
-        panels.push_back(p);
-    }
-    if (slice) {
-        RenderPanel p = base;
-        p.title = a.grid + " on the slice " + a.slice;
-        if (!hasMean && !a.title.empty()) p.title = a.title;
-        p.sliceGrid = grid.get();
-        p.slice = *slice;
-        panels.push_back(p);
-    }
-    if (panels.size() == 2 && !(a.range.size() == 2)) {  // surface and slice share the grid's colours
-        float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-        for (auto v = grid->cbeginValueOn(); v; ++v)
-            if (std::isfinite(*v) && (!a.logScale || *v > 0)) lo = std::min(lo, *v), hi = std::max(hi, *v);
-        if (a.symmetric) hi = std::max(std::abs(lo), std::abs(hi)), lo = -hi;
-        if (lo < hi)
-            for (RenderPanel& p : panels) p.range = {lo, hi};
-    }
+    const std::vector<RenderPanel> panels = makePanels(a, base, file, *grid, hasMean, iso, slice, std::move(paths), surface);
     RenderOptions o;
     o.azimuth = a.view[0], o.elevation = a.view[1];
     o.panelWidth = int(a.size[0]), o.panelHeight = int(a.size[1]);

@@ -85,8 +85,7 @@ void addFlags(CLI::App& cmd, Args& a) {
     addBandFlags(cmd, a.flags);
 }
 
-/// `gpisvdb surfaces` once its flags are parsed.
-void execute(Args& a, Clock::time_point start) {
+void checkFlags(const Args& a) {
     if (a.flags.model.model != "winding")
         throw ParameterError(
             "plausible surfaces are drawn from the winding-number model only (--model winding): "
@@ -95,42 +94,34 @@ void execute(Args& a, Clock::time_point start) {
     if (a.draws.firstDraw < 0 || a.draws.firstDraw > std::numeric_limits<int>::max() - a.draws.count)
         throw ParameterError("--first must be >= 0, and --first + n must fit an int");
     if (!(a.draws.openingRatio > 1) || !std::isfinite(a.draws.openingRatio)) throw ParameterError("--draw-beta must be finite and > 1");
-    const MeshFormat format = a.format == "ply" ? MeshFormat::Ply : MeshFormat::Vtp;
-    const InputData data = readInput(a.input);
-    AtomicDirectory out(a.dir);
-    std::unique_ptr<AtomicOutput> pictureOut;
-    if (!a.picture.empty()) pictureOut = std::make_unique<AtomicOutput>(a.picture);
-    std::unique_ptr<AtomicOutput> reportOut;
-    if (!a.flags.report.empty()) reportOut = std::make_unique<AtomicOutput>(a.flags.report);
-    const Progress progress = makeProgress(a.flags.model.quiet);
-    const BandJob job = runBand(data, a.flags, progress);
+}
+
+/// Memory, refused before the draws allocate: the noise and the tree, n fields over the band, and one draw's grid and
+/// mesh at a time (the mean surface's as their measure: a draw's mesh has ≈ 4 % more triangles on the bunny).
+MemoryEstimate estimateSurfaces(const BandJob& job, const Args& a, const openvdb::FloatGrid& meanGrid, MeshFormat format) {
     const Band& band = job.result.band;
-    const Samples& samples = job.model.input.samples;
-    const int n = a.draws.count;
-
-    // === Memory, refused before the draws allocate: the noise and the tree, n fields over the band, and one
-    //     draw's grid and mesh at a time (the mean surface's as their measure: a draw's mesh has ≈ 4 % more
-    //     triangles on the bunny)
-    const auto meanGrid = drawGrid(band, band.mean);
     std::vector<std::pair<std::string, double>> parts = {
-        {"draws' noise and tree", SurfaceDraws::bytes(samples.size(), a.draws)},
-        {"draws' fields", 4.0 * double(n) * double(band.size())},
-        {"draw's grid", double(meanGrid->memUsage())}};  // one at a time, the band's topology as the mean's
-    for (const auto& part : meanSurfaceBytes(*meanGrid, band.iso, 0, format == MeshFormat::Vtp))
+        {"draws' noise and tree", SurfaceDraws::bytes(job.model.input.samples.size(), a.draws)},
+        {"draws' fields", 4.0 * double(a.draws.count) * double(band.size())},
+        {"draw's grid", double(meanGrid.memUsage())}};  // one at a time, the band's topology as the mean's
+    for (const auto& part : meanSurfaceBytes(meanGrid, band.iso, 0, format == MeshFormat::Vtp))
         parts.push_back({"mesh: " + part.first, part.second});
-    const MemoryEstimate memory = estimateStage(job, "plausible surfaces", std::move(parts));
-    const bool stageOnly = resetPeakResident();
+    return estimateStage(job, "plausible surfaces", std::move(parts));
+}
 
-    // === The draws' fields on the band, then each one's level set u
-    const auto tDraws = Clock::now();
-    const SurfaceDraws draws(samples, job.model.smoothing, a.draws);
-    const std::vector<std::vector<float>> fields = draws.onBand(band, progress);
-    const double secondsDraws = std::chrono::duration<double>(Clock::now() - tDraws).count();
-    const auto tMeshes = Clock::now();
-    nlohmann::json meshes = nlohmann::json::array();
-    std::vector<SurfaceMesh> shown;  // the first three draws, for --picture
+/// The draws' level sets, written into `dir`: each mesh's row of the report, the first three meshes (for the
+/// picture, when asked) and the areas' mean and standard deviation.
+struct DrawnMeshes {
+    nlohmann::json rows = nlohmann::json::array();
+    std::vector<SurfaceMesh> shown;
+    double meanArea = 0, areaStd = 0;
+};
+
+DrawnMeshes writeDrawnMeshes(const Args& a, const Band& band, const std::vector<std::vector<float>>& fields, MeshFormat format,
+                             const std::filesystem::path& dir, const Progress& progress) {
+    DrawnMeshes d;
+    const int n = a.draws.count;
     double areaSum = 0, areaSum2 = 0;
-    const std::filesystem::path tmp(out.tempPath());
     for (int k = 0; k < n; ++k) {
         progress.checkInterrupt();
         progress.update("meshes", double(k) / n);
@@ -138,45 +129,77 @@ void execute(Args& a, Clock::time_point start) {
         SurfaceMesh mesh = meanSurface(*drawGrid(band, fields[std::size_t(k)]), band.iso);
         mesh.comment = "gpisvdb plausible surface: draw " + std::to_string(draw) + " of seed " + std::to_string(a.draws.seed);
         const std::string name = surfaceFileName(draw, format);
-        writeMesh(mesh, (tmp / name).string(), format);
+        writeMesh(mesh, (dir / name).string(), format);
         const double area = surfaceArea(mesh);
         areaSum += area;
         areaSum2 += area * area;
-        meshes.push_back(
+        d.rows.push_back(
             {{"draw", draw}, {"file", name}, {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()}, {"area", area}});
-        if (!a.picture.empty() && shown.size() < 3) shown.push_back(std::move(mesh));
+        if (!a.picture.empty() && d.shown.size() < 3) d.shown.push_back(std::move(mesh));
     }
     progress.update("meshes", 1.0);
+    d.meanArea = areaSum / n;
+    d.areaStd = n > 1 ? std::sqrt(std::max(0.0, (areaSum2 - n * d.meanArea * d.meanArea) / (n - 1))) : 0.0;
+    return d;
+}
+
+/// The report: the band's, with the stage's memory, the draws and their meshes, the timings and the outputs.
+nlohmann::json surfacesReport(const BandJob& job, const Args& a, nlohmann::json stages, DrawnMeshes& d, double secondsDraws,
+                              double secondsMeshes, double total) {
+    nlohmann::json report = bandReport(job, a.flags);
+    report["memory"]["stages"] = std::move(stages);
+    report["surfaces"] = {{"count", a.draws.count},
+                          {"seed", a.draws.seed},
+                          {"first", a.draws.firstDraw},
+                          {"draw_beta", a.draws.openingRatio},
+                          {"expected_area", job.result.band.mass()},
+                          {"mean_area", d.meanArea},
+                          {"area_std", d.areaStd},
+                          {"meshes", std::move(d.rows)}};
+    report["timings_s"] = {
+        {"model", job.secondsModel}, {"band", job.secondsBand}, {"draws", secondsDraws}, {"meshes", secondsMeshes}, {"total", total}};
+    report["outputs"] = {a.dir};
+    if (!a.picture.empty()) report["outputs"].push_back(a.picture);
+    return report;
+}
+
+/// `gpisvdb surfaces` once its flags are parsed.
+void execute(Args& a, Clock::time_point start) {
+    checkFlags(a);
+    const MeshFormat format = a.format == "ply" ? MeshFormat::Ply : MeshFormat::Vtp;
+    const InputData data = readInput(a.input);
+    AtomicDirectory out(a.dir);
+    std::unique_ptr<AtomicOutput> pictureOut = optionalOutput(a.picture), reportOut = optionalOutput(a.flags.report);
+    const Progress progress = makeProgress(a.flags.model.quiet);
+    const BandJob job = runBand(data, a.flags, progress);
+    const Band& band = job.result.band;
+    const auto meanGrid = drawGrid(band, band.mean);
+    const MemoryEstimate memory = estimateSurfaces(job, a, *meanGrid, format);
+    const bool stageOnly = resetPeakResident();
+
+    // === The draws' fields on the band, then each one's level set u
+    const auto tDraws = Clock::now();
+    const SurfaceDraws draws(job.model.input.samples, job.model.smoothing, a.draws);
+    const std::vector<std::vector<float>> fields = draws.onBand(band, progress);
+    const double secondsDraws = std::chrono::duration<double>(Clock::now() - tDraws).count();
+    const auto tMeshes = Clock::now();
+    DrawnMeshes drawn = writeDrawnMeshes(a, band, fields, format, out.tempPath(), progress);
     const double secondsMeshes = std::chrono::duration<double>(Clock::now() - tMeshes).count();
     const double peak = peakResidentBytes();
     nlohmann::json pictureStage;
-    if (pictureOut) pictureStage = drawPicture(job, meanGrid, shown, a.draws.firstDraw, pictureOut->tempPath());
-    const double meanArea = areaSum / n;
-    const double areaStd = n > 1 ? std::sqrt(std::max(0.0, (areaSum2 - n * meanArea * meanArea) / (n - 1))) : 0.0;
+    if (pictureOut) pictureStage = drawPicture(job, meanGrid, drawn.shown, a.draws.firstDraw, pictureOut->tempPath());
     out.commit();
     if (pictureOut) pictureOut->commit();
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (reportOut) {
-        nlohmann::json report = bandReport(job, a.flags);
-        report["memory"]["stages"] = {{"surfaces", memoryStageReport(memory, peak, stageOnly)}};
-        if (!pictureStage.is_null()) report["memory"]["stages"]["picture"] = pictureStage;
-        report["surfaces"] = {{"count", n},
-                              {"seed", a.draws.seed},
-                              {"first", a.draws.firstDraw},
-                              {"draw_beta", a.draws.openingRatio},
-                              {"expected_area", band.mass()},
-                              {"mean_area", meanArea},
-                              {"area_std", areaStd},
-                              {"meshes", meshes}};
-        report["timings_s"] = {
-            {"model", job.secondsModel}, {"band", job.secondsBand}, {"draws", secondsDraws}, {"meshes", secondsMeshes}, {"total", total}};
-        report["outputs"] = {a.dir};
-        if (!a.picture.empty()) report["outputs"].push_back(a.picture);
-        commitReport(*reportOut, report);
+        nlohmann::json stages = {{"surfaces", memoryStageReport(memory, peak, stageOnly)}};
+        if (!pictureStage.is_null()) stages["picture"] = pictureStage;
+        commitReport(*reportOut, surfacesReport(job, a, std::move(stages), drawn, secondsDraws, secondsMeshes, total));
     }
     if (!a.flags.model.quiet)
-        std::cerr << "surfaces: " << n << " draws on " << band.size() << " voxels, area " << numberText(meanArea) << " +- "
-                  << numberText(areaStd) << " (expected " << numberText(band.mass()) << ") -> " << a.dir << ", " << total << " s\n";
+        std::cerr << "surfaces: " << a.draws.count << " draws on " << band.size() << " voxels, area " << numberText(drawn.meanArea)
+                  << " +- " << numberText(drawn.areaStd) << " (expected " << numberText(band.mass()) << ") -> " << a.dir << ", " << total
+                  << " s\n";
 }
 
 }  // namespace

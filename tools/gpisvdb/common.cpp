@@ -236,6 +236,10 @@ ModelOptions modelOptions(const ModelFlags& flags) {
     return o;
 }
 
+std::unique_ptr<AtomicOutput> optionalOutput(const std::string& path) {
+    return path.empty() ? nullptr : std::make_unique<AtomicOutput>(path);
+}
+
 AtomicOutput::AtomicOutput(std::string path) : path_(std::move(path)), temp_(temporaryPathBeside(path_)) {
     registerTemporary(temp_, false);
     std::ofstream probe(temp_);

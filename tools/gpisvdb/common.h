@@ -67,6 +67,9 @@ private:
     bool committed_ = false;
 };
 
+/// An AtomicOutput for `path`, or none where `path` is empty (an optional output such as --report).
+std::unique_ptr<AtomicOutput> optionalOutput(const std::string& path);
+
 /// After an interrupt or an error: removes the files earlier AtomicOutput::commit() calls of this run put in place
 /// (a command stopped between its .vdb and its report leaves neither).
 void removeCommittedOutputs();
