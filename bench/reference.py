@@ -13,10 +13,12 @@ reference's and ours alternated, `--repeat` times; medians. Writes bench/results
 
 With --agreement-only: μ, T and the field at its voxels against ours; with --joins also the Green's function and
 the geodesic distance on its lattice (docs/reference.md#joins; reads our grids with Debian's pyopenvdb, so run it
-with /usr/bin/python3).
+with /usr/bin/python3), and with --eigen-joins the 10 lowest eigenvalues there. --gpgp-args and --our-args pass
+switches to the driver and flags to gpisvdb, for tracing a difference (docs/reference.md#running-it).
 
 Usage: python3 bench/reference.py --gpgp PATH [--inputs spot_low_variance,...] [--repeat 1] [--no-eigen]
-                                  [--agreement-only [--joins]] [--work DIR] [--out FILE]
+                                  [--agreement-only [--joins [--eigen-joins]]] [--gpgp-args ARGS] [--our-args ARGS]
+                                  [--work DIR] [--out FILE]
 """
 import argparse, json, os, re, statistics, subprocess, sys, tempfile, time
 
@@ -30,9 +32,14 @@ ap.add_argument("--agreement-only", action="store_true",
 ap.add_argument("--joins", action="store_true",
                 help="with --agreement-only: also the Green's function and the geodesic distance voxel by voxel, ours "
                      "on the reference's lattice (the input shifted so that its voxel centres are ours); needs pyopenvdb")
+ap.add_argument("--eigen-joins", action="store_true",
+                help="with --joins: also the 10 lowest eigenvalues of its L and M (through L's Cholesky factor, "
+                     "--eigen-direct of the driver) against ours on its lattice")
 ap.add_argument("--exe", default="build/bin/gpisvdb")
 ap.add_argument("--work", default="build/reference", help="where the reference's copy and build go")
 ap.add_argument("--gpgp-args", default="", help="more arguments for the reference's driver, e.g. '--beta 100'")
+ap.add_argument("--our-args", default="",
+                help="more flags for gpisvdb in the joins, e.g. '--max-anisotropy 1e9' (what a difference owes to)")
 ap.add_argument("--out", help="default: bench/results/reference.json (reference_agreement.json with --agreement-only)")
 args = ap.parse_args()
 if args.out is None:
@@ -49,9 +56,9 @@ driver = os.path.join(build, "gpgp_driver")
 SOURCE = "-0.286,-0.141,-0.181"  # a point on spot's side (the driver's default source)
 
 
-def gpgp(gdp, dump=None, eigen=True):
+def gpgp(gdp, dump=None, eigen=True, extra=()):
     cmd = [driver, "--input", gdp, "--source", SOURCE] + (["--no-eigen"] if args.no_eigen or not eigen else []) + \
-        (["--dump", dump] if dump else []) + args.gpgp_args.split()
+        (["--dump", dump] if dump else []) + args.gpgp_args.split() + list(extra)
     start = time.monotonic()
     out = subprocess.run(cmd, check=True, capture_output=True, text=True, env=dict(os.environ, OMP_NUM_THREADS=str(os.cpu_count()))).stdout
     result = json.loads(out.split("RESULT ", 1)[1])
@@ -195,13 +202,26 @@ def joins(gdp, first, base, tmp):
         out[command] = {"our_voxels": len(mine), "common_voxels": len(common), **fit(o, t),
                         # GPGP's L lacks the h its M carries, its source is M e_s, its distances are in voxels
                         "expected_scale": first["source_mu"] * h ** 4 if command == "green" else 1 / h}
+    if args.eigen_joins:
+        # Its L lacks the h its M carries: its λ are ours over h.
+        theirs = gpgp(gdp, eigen=True, extra=["--eigen-direct", "--no-green", "--no-fmm"])
+        report = os.path.join(tmp, "spectrum.json")
+        subprocess.run([args.exe, "spectrum", shifted, "-k", "10", "-o", os.path.join(tmp, "spectrum.vdb"), "--report", report,
+                        "--quiet"] + flags, check=True)
+        mine = sorted(json.load(open(report))["spectrum"]["eigenvalues"])
+        scaled = sorted(v * h for v in theirs.get("eigenvalues_grid_units", []))  # the driver lists them from the largest
+        out["eigenvalues"] = {"ours": mine, "reference_times_h": scaled, "voxels": theirs["voxels"],
+                              "ours_over_reference": [a / b for a, b in zip(mine, scaled)],
+                              "reference_seconds": theirs["seconds"].get("eigen")}
     return out
 
 
 results = {"command": "python3 bench/reference.py --gpgp PATH --inputs %s --repeat %d%s%s%s" %
            (args.inputs, args.repeat, " --no-eigen" if args.no_eigen else "",
-            " --agreement-only" + (" --joins" if args.joins else "") if args.agreement_only else "",
-            " --gpgp-args '%s'" % args.gpgp_args if args.gpgp_args else ""),
+            " --agreement-only" + (" --joins" if args.joins else "") + (" --eigen-joins" if args.eigen_joins else "")
+            if args.agreement_only else "",
+            " --gpgp-args '%s'" % args.gpgp_args if args.gpgp_args else "") +
+           (" --our-args '%s'" % args.our_args if args.our_args else ""),
            "machine": {"nproc": os.cpu_count()}, "date": time.strftime("%Y-%m-%d"), "inputs": []}
 with tempfile.TemporaryDirectory() as tmp:
     for name in args.inputs.split(","):
@@ -227,7 +247,8 @@ with tempfile.TemporaryDirectory() as tmp:
                                       "gpgp": {k: first[k] for k in ("voxels", "dx", "iso", "mass", "smoothing")},
                                       "agreement_at_reference_voxels": agree})
             if args.joins:
-                results["inputs"][-1]["joins_on_reference_lattice"] = joins(gdp, first, base + ["--iso", repr(iso)], tmp)
+                results["inputs"][-1]["joins_on_reference_lattice"] = joins(gdp, first, base + ["--iso", repr(iso)] +
+                                                                            args.our_args.split(), tmp)
             print(json.dumps(results["inputs"][-1], indent=1))
             continue
         mapped, _ = with_reference_eta(gdp, first, base + ["--iso", repr(iso)], tmp)

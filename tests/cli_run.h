@@ -38,7 +38,9 @@ inline std::string fileText(const std::string& path) {
 inline Run runShell(const std::string& command) {
     const fs::path dir = gpisvdb::test::scratchDir();
     const std::string out = (dir / "gpisvdb_cli_stdout").string(), err = (dir / "gpisvdb_cli_stderr").string();
-    const int status = std::system((command + " >" + out + " 2>" + err + " </dev/null").c_str());
+    // In a subshell: the redirections apply to the whole command, a pipeline's last stage included (appended to a
+    // bare pipeline, "</dev/null" would replace that stage's input, the pipe).
+    const int status = std::system(("( " + command + " ) >" + out + " 2>" + err + " </dev/null").c_str());
     Run r;
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     r.out = fileText(out);

@@ -5,9 +5,12 @@
 // prepare_gpgp.py made.
 //
 // Usage: gpgp_driver --input F.gdp [--reg 0.5] [--beta 3] [--eta 0.1] [--qmc 512] [--grid_size N (default: its
-//        heuristic)] [--neig 10] [--source X,Y,Z] [--no-green] [--no-fmm] [--no-eigen] [--dump PREFIX]
+//        heuristic)] [--neig 10] [--source X,Y,Z] [--tikhonov 1e-6 (its L's shift, relative to its largest
+//        eigenvalue)] [--no-visibility (its L keeps every stencil edge whose far end is in the band, as ours)]
+//        [--eigen-direct (L's CHOLMOD factor instead of its CG)] [--no-green] [--no-fmm] [--no-eigen] [--dump PREFIX]
 #include <Spectra/SymGEigsSolver.h>  // first, in a block of its own: the MatOp headers use its CompInfo
 
+#include <Eigen/CholmodSupport>
 #include <Eigen/IterativeLinearSolvers>
 #include <omp.h>
 #include <Spectra/MatOp/SparseRegularInverse.h>
@@ -42,6 +45,61 @@ int nearestNode(const Points<dim>& P, const Vector<dim>& x) {
     return best;
 }
 
+/// L⁻¹ through CHOLMOD's supernodal Cholesky factor, for Spectra's regular-inverse mode (in place of its
+/// SparseRegularInverse, which runs a conjugate gradient solve at every step).
+class CholmodRegularInverse {
+public:
+    using Scalar = SGP::scalar;
+    explicit CholmodRegularInverse(const smat& L) : L_(L) {
+        factor_.compute(L);
+        if (factor_.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor L");
+    }
+    Eigen::Index rows() const { return L_.rows(); }
+    void solve(const Scalar* x, Scalar* y) const { Eigen::Map<Vec>(y, rows()) = factor_.solve(Eigen::Map<const Vec>(x, rows())); }
+    void perform_op(const Scalar* x, Scalar* y) const { Eigen::Map<Vec>(y, rows()) = L_ * Eigen::Map<const Vec>(x, rows()); }
+
+private:
+    const smat& L_;
+    Eigen::CholmodSupernodalLLT<smat> factor_;
+};
+
+/// GPGP's calculus with one more way to build its Laplacian, for tracing where ours and its differ.
+struct DriverCalculus : HamiltonianFastMarching {
+    using HamiltonianFastMarching::HamiltonianFastMarching;
+
+    /// Its Laplacian (each edge (x, x ± e) weighted by the mean of its ends' Voronoi weights, an edge whose far end is
+    /// outside the band adding to the diagonal alone, then its shift: `tikhonov` × its estimate of L's largest
+    /// eigenvalue) with every edge whose far end is in the band kept, as ours keeps it: its own also drops, keeping
+    /// the diagonal weight, the edges whose lattice segment leaves the band on the way (its visibility check).
+    smat laplacianWithoutVisibility(double tikhonov) {
+        if (!nodes.begin()->second.stencil.elements.size()) computeVoronoiStencil();
+        const int m = int(nodes.size());
+        std::vector<Eigen::Triplet<scalar>> entries;
+        Vec diagonal = Vec::Zero(m);
+        for (const auto& [key, node] : nodes) {
+            const GridElement x = getGridCoord(int(key));
+            for (const auto& [offset, weight] : node.stencil.elements)
+                for (const int sign : {-1, 1}) {
+                    diagonal(node.id) += weight;
+                    const auto other = getRestrictionIndex(x + sign * offset);
+                    if (!other) continue;
+                    entries.emplace_back(node.id, int(*other), -weight);
+                    entries.emplace_back(int(*other), node.id, -weight);
+                    diagonal(int(*other)) += weight;
+                }
+        }
+        for (int i = 0; i < m; ++i) entries.emplace_back(i, i, diagonal(i));
+        smat L(m, m);
+        L.setFromTriplets(entries.begin(), entries.end());
+        L *= 0.5;
+        smat shift(m, m);
+        shift.setIdentity();
+        L += shift * (tikhonov * getTikhonovParameter(L));
+        L.makeCompressed();
+        return L;
+    }
+};
+
 Vector<dim> parsePoint(const std::string& text) {
     Vector<dim> x;
     char comma;
@@ -54,9 +112,9 @@ Vector<dim> parsePoint(const std::string& text) {
 
 int main(int argc, char** argv) {
     std::string input, dump;
-    double reg = 0.5, beta = 3, eta = 0.1;
+    double reg = 0.5, beta = 3, eta = 0.1, tikhonov = 1e-6;
     int qmc = 512, gridSize = -1, eigenCount = 10;
-    bool green = true, fmm = true, eigen = true;
+    bool green = true, fmm = true, eigen = true, visibility = true, eigenDirect = false;
     Vector<dim> source(-0.286, -0.141, -0.181);  // on spot's side
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -65,12 +123,15 @@ int main(int argc, char** argv) {
         else if (a == "--reg") reg = std::stod(value());
         else if (a == "--beta") beta = std::stod(value());
         else if (a == "--eta") eta = std::stod(value());
+        else if (a == "--tikhonov") tikhonov = std::stod(value());
         else if (a == "--qmc") qmc = std::stoi(value());
         else if (a == "--grid_size") gridSize = std::stoi(value());
         else if (a == "--neig") eigenCount = std::stoi(value());
         else if (a == "--source") source = parsePoint(value());
         else if (a == "--dump") dump = value();
         else if (a == "--no-green") green = false;
+        else if (a == "--no-visibility") visibility = false;
+        else if (a == "--eigen-direct") eigenDirect = true;
         else if (a == "--no-fmm") fmm = false;
         else if (a == "--no-eigen") eigen = false;
         else {
@@ -116,7 +177,7 @@ int main(int argc, char** argv) {
     SparseNarrowBand band = BuildAdaptiveNarrowBand(dipoles, field, h, eta);
     const double tBand = since(t);
     t = Clock::now();
-    HamiltonianFastMarching calculus(band);
+    DriverCalculus calculus(band);
     const double tIndex = since(t);
     const int m = calculus.getNumVariables();
     const Points<dim> X = calculus.embedNarrowBand();
@@ -133,7 +194,7 @@ int main(int argc, char** argv) {
     // === Operators (its M carries h³; its L is in grid units)
     t = Clock::now();
     const smat M = calculus.buildMassMatrix();
-    const smat L = calculus.buildVoronoiLaplace();
+    const smat L = visibility ? calculus.buildVoronoiLaplace(tikhonov) : calculus.laplacianWithoutVisibility(tikhonov);
     const double tOperators = since(t);
     std::printf("[operators M, L] %.3f s: nnz(L) %ld\n", tOperators, long(L.nonZeros()));
     json << ", \"operators\": " << tOperators;
@@ -169,21 +230,34 @@ int main(int argc, char** argv) {
     }
     if (eigen) {
         t = Clock::now();
+        // M v = ν L v, its largest ν = 1/λ: L applied inversely by CG at every step (its showcase's), or through
+        // L's sparse Cholesky factor (--eigen-direct: the same eigenpairs, minutes faster).
         Spectra::SparseSymMatProd<scalar> massProduct(M);
-        Spectra::SparseRegularInverse<scalar> laplaceSolve(L);
-        Spectra::SymGEigsSolver<Spectra::SparseSymMatProd<scalar>, Spectra::SparseRegularInverse<scalar>,
-                                Spectra::GEigsMode::RegularInverse>
-            solver(massProduct, laplaceSolve, eigenCount, std::min(2 * eigenCount, m));
-        solver.init();
-        solver.compute(Spectra::SortRule::LargestAlge);
+        bool ok = false;
+        if (eigenDirect) {
+            CholmodRegularInverse laplaceSolve(L);
+            Spectra::SymGEigsSolver<Spectra::SparseSymMatProd<scalar>, CholmodRegularInverse, Spectra::GEigsMode::RegularInverse> solver(
+                massProduct, laplaceSolve, eigenCount, std::min(2 * eigenCount, m));
+            solver.init();
+            solver.compute(Spectra::SortRule::LargestAlge);
+            ok = solver.info() == Spectra::CompInfo::Successful;
+            if (ok) values = solver.eigenvalues();
+        } else {
+            Spectra::SparseRegularInverse<scalar> laplaceSolve(L);
+            Spectra::SymGEigsSolver<Spectra::SparseSymMatProd<scalar>, Spectra::SparseRegularInverse<scalar>,
+                                    Spectra::GEigsMode::RegularInverse>
+                solver(massProduct, laplaceSolve, eigenCount, std::min(2 * eigenCount, m));
+            solver.init();
+            solver.compute(Spectra::SortRule::LargestAlge);
+            ok = solver.info() == Spectra::CompInfo::Successful;
+            if (ok) values = solver.eigenvalues();
+        }
         const double tEigen = since(t);
-        const bool ok = solver.info() == Spectra::CompInfo::Successful;
         std::printf("[eigenpairs] %.3f s: %s\n", tEigen, ok ? "converged" : "not converged");
         json << ", \"eigen\": " << tEigen;
         if (ok) {
-            values = solver.eigenvalues();
             extra += ", \"eigenvalues_grid_units\": [";
-            for (int i = int(values.size()) - 1; i >= 0; --i) {  // L v = λ M v: λ = 1 / Spectra's, ascending
+            for (int i = int(values.size()) - 1; i >= 0; --i) {  // L v = λ M v: λ = 1 / Spectra's ν, from the largest λ down
                 std::ostringstream v;
                 v.precision(10);
                 v << 1.0 / values(i);
