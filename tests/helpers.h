@@ -10,9 +10,14 @@
 
 namespace gpisvdb::test {
 
-/// A scratch directory of this test process (CTest runs tests in parallel processes).
+/// Where this test process's scratch files go (CTest runs tests in parallel processes); the test main removes it at
+/// exit unless GPISVDB_KEEP_TEST_FILES is set.
+inline std::filesystem::path scratchDirPath() {
+    return std::filesystem::temp_directory_path() / ("gpisvdb_test_" + std::to_string(getpid()));
+}
+/// scratchDirPath(), made if need be.
 inline std::filesystem::path scratchDir() {
-    const auto dir = std::filesystem::temp_directory_path() / ("gpisvdb_test_" + std::to_string(getpid()));
+    const auto dir = scratchDirPath();
     std::filesystem::create_directories(dir);
     return dir;
 }
