@@ -203,16 +203,15 @@ def joins(gdp, first, base, tmp):
                         # GPGP's L lacks the h its M carries, its source is M e_s, its distances are in voxels
                         "expected_scale": first["source_mu"] * h ** 4 if command == "green" else 1 / h}
     if args.eigen_joins:
-        # Its L lacks the h its M carries: its λ are ours over h.
-        theirs = gpgp(gdp, eigen=True, extra=["--eigen-direct", "--no-green", "--no-fmm"])
+        # Its L lacks the h its M carries: its λ are ours over h. Its eigenpairs came with its first run.
         report = os.path.join(tmp, "spectrum.json")
         subprocess.run([args.exe, "spectrum", shifted, "-k", "10", "-o", os.path.join(tmp, "spectrum.vdb"), "--report", report,
                         "--quiet"] + flags, check=True)
         mine = sorted(json.load(open(report))["spectrum"]["eigenvalues"])
-        scaled = sorted(v * h for v in theirs.get("eigenvalues_grid_units", []))  # the driver lists them from the largest
-        out["eigenvalues"] = {"ours": mine, "reference_times_h": scaled, "voxels": theirs["voxels"],
+        scaled = sorted(v * h for v in first.get("eigenvalues_grid_units", []))  # the driver lists them from the largest
+        out["eigenvalues"] = {"ours": mine, "reference_times_h": scaled, "voxels": first["voxels"],
                               "ours_over_reference": [a / b for a, b in zip(mine, scaled)],
-                              "reference_seconds": theirs["seconds"].get("eigen")}
+                              "reference_seconds": first["seconds"].get("eigen")}
     return out
 
 
@@ -227,7 +226,9 @@ with tempfile.TemporaryDirectory() as tmp:
     for name in args.inputs.split(","):
         gdp = name if name.endswith(".gdp") else os.path.join(args.gpgp, "data", name + ".gdp")
         # === Reference mode: GPGP's parameters in our terms
-        first = gpgp(gdp, dump=os.path.join(tmp, "gpgp"), eigen=not args.agreement_only)
+        eigen_joins = args.agreement_only and args.joins and args.eigen_joins  # its eigenpairs from this one run
+        first = gpgp(gdp, dump=os.path.join(tmp, "gpgp"), eigen=not args.agreement_only or eigen_joins,
+                     extra=["--eigen-direct"] if eigen_joins else [])
         info = subprocess.run([args.exe, "info", gdp, "--no-forecast"], check=True, capture_output=True, text=True).stdout
         ell = float(re.search(r"length scale: *([0-9.eE+-]+)", info).group(1))
         points = os.path.join(tmp, "dipoles.xyz")
