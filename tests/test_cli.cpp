@@ -40,6 +40,28 @@ TEST_CASE("cli: info describes the bunny", "[cli]") {
     CHECK(r.code == 0);
     CHECK_THAT(r.out, Catch::Contains("samples:      3674"));
     CHECK_THAT(r.out, Catch::Contains("length scale"));
+    CHECK_THAT(r.out, Catch::Contains("sigma:        0.5 x l = "));
+    CHECK_THAT(r.out, Catch::Contains("smoothing:    0.4 x l = "));
+}
+
+TEST_CASE("cli: info says a scan's own sigma and the smoothing it sets, as the model takes them", "[cli]") {
+    // 1 000 unit-sphere points with σ = 0.05 each: ℓ ≈ 0.11, so s = 1.2 σ = 0.06 is above 0.4 ℓ (docs/math.md#smoothing)
+    std::mt19937 rng(3);
+    std::normal_distribution<double> g;
+    std::ostringstream cloud;
+    for (int i = 0; i < 1000; ++i) {
+        const Eigen::Vector3d p = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+        cloud << p.x() << " " << p.y() << " " << p.z() << " " << p.x() << " " << p.y() << " " << p.z() << " 0.05\n";
+    }
+    const std::string path = temp("own_sigma.xyz", cloud.str());
+    const Run r = run("info " + path + " --no-forecast");
+    REQUIRE(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("sigma:        each point's own (the file's), median 0.05 (world units)"));
+    CHECK_THAT(r.out, Catch::Contains("smoothing:    1.2 x median sigma = 0.06 (set by the noise, above 0.4 x l = "));
+    // --noise-smoothing 0 leaves s = 0.4 ℓ, as the model would
+    const Run off = run("info " + path + " --no-forecast --noise-smoothing 0");
+    REQUIRE(off.code == 0);
+    CHECK_THAT(off.out, Catch::Contains("smoothing:    0.4 x l = "));
 }
 
 TEST_CASE("cli: evaluate writes one row per query point with the documented header", "[cli]") {

@@ -4,12 +4,14 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <sstream>
 
 #include <tbb/global_control.h>
 
 #include "band_job.h"
 #include "commands.h"
 #include "gpisvdb/band/band_forecast.h"
+#include "gpisvdb/model/load_model.h"
 #include "spectrum_job.h"
 
 namespace gpisvdb::cli {
@@ -106,6 +108,28 @@ void addFlags(CLI::App& cmd, Args& a) {
         ->capture_default_str();
 }
 
+/// σ as the model takes it: σ_rel·ℓ, or each point's own (a cloud with a σ per point, world units).
+std::string noiseLine(const InputSamples& s, const ModelFlags& flags) {
+    std::ostringstream line;
+    if (s.absoluteNoise) line << "each point's own (the file's), median " << medianPositionStd(s.samples) << " (world units)";
+    else line << flags.sigmaRel << " x l = " << s.sigma;
+    return line.str();
+}
+
+/// The winding model's s and what set it, as loadModel chooses it (docs/math.md#smoothing).
+std::string smoothingLine(const InputSamples& s, const ModelFlags& flags) {
+    ModelOptions options;
+    options.smoothingRel = flags.smoothingRel;
+    options.noiseSmoothing = flags.noiseSmoothing;
+    const auto [smoothing, source] = windingSmoothing(s, options);
+    std::ostringstream line;
+    if (source == SmoothingSource::Noise)
+        line << options.noiseSmoothing << " x median sigma = " << smoothing << " (set by the noise, above " << options.smoothingRel
+             << " x l = " << options.smoothingRel * s.samples.lengthScale << ")";
+    else line << options.smoothingRel << " x l = " << smoothing;
+    return line.str();
+}
+
 /// The samples (a triangle's or a point's position, normal and their covariances), described on stdout: estimated and
 /// refused before they are made, measured over it (docs/memory.md#info). The input, read in whole before, is the
 /// baseline; no setting makes fewer samples. The report's samples stage and input; the samples are freed on return
@@ -128,8 +152,8 @@ nlohmann::json describeSamples(const InputData& data, const ModelFlags& flags, d
               << "\n"
               << "bbox min:     " << lo.transpose() << "\n"
               << "bbox max:     " << hi.transpose() << "\n"
-              << "sigma:        " << flags.sigmaRel << " x l = " << s.sigma << "\n"
-              << "smoothing:    " << flags.smoothingRel << " x l = " << flags.smoothingRel * ell << "\n"
+              << "sigma:        " << noiseLine(s, flags) << "\n"
+              << "smoothing:    " << smoothingLine(s, flags) << "\n"
               << "skipped:      " << s.degenerateSkipped << " zero-area triangles\n"
               << "triangulated: " << data.polygonsTriangulated << " polygons with more than 3 corners (fans)\n";
     nlohmann::json report = stageReport("samples", memoryStageReport(memory, peak, stageOnly));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <tuple>
 #include <vector>
 
 #include "gpisvdb/core/errors.h"
@@ -47,6 +48,14 @@ bool orientOutward(InputSamples& input, const GpisModel& winding) {
 
 }  // namespace
 
+std::pair<double, SmoothingSource> windingSmoothing(const InputSamples& input, const ModelOptions& options) {
+    const double fromLength = options.smoothingRel * input.samples.lengthScale;
+    // === s follows a cloud's own noise where its points are denser than it (docs/math.md#smoothing)
+    const double fromNoise = input.absoluteNoise ? options.noiseSmoothing * medianPositionStd(input.samples) : 0;
+    if (fromNoise > fromLength) return {fromNoise, SmoothingSource::Noise};
+    return {fromLength, SmoothingSource::LengthScale};
+}
+
 LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
     if (!(options.smoothingRel > 0) || !std::isfinite(options.smoothingRel))
         throw ParameterError(
@@ -59,10 +68,7 @@ LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
                              {"ModelOptions::noiseSmoothing"});
     m.input = makeSamples(data, {options.sigmaRel});
     m.smoothing = options.smoothingRel * m.input.samples.lengthScale;
-    // === s follows a cloud's own noise where its points are denser than it (docs/math.md#smoothing)
-    const double fromNoise = options.noiseSmoothing * medianPositionStd(m.input.samples);
-    if (options.kind == ModelKind::Winding && m.input.absoluteNoise && fromNoise > m.smoothing)
-        m.smoothing = fromNoise, m.smoothingSource = SmoothingSource::Noise;
+    if (options.kind == ModelKind::Winding) std::tie(m.smoothing, m.smoothingSource) = windingSmoothing(m.input, options);
     if (options.kind == ModelKind::Regression) {
         // === Orientation: the generated labels' inside and outside follow the normals
         if (options.orientOutward && !options.labels) orientOutward(m.input, *windingModel(m.input.samples, m.smoothing, options));

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <memory>
 #include <optional>
+#include <utility>
 
 #include "gpisvdb/input/read_input.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
@@ -61,6 +62,10 @@ struct LoadedModel {
 
 /// σ_p: the median over the samples of their position std √v_i, world units.
 double medianPositionStd(const Samples& samples);
+
+/// A winding model's smoothing s (world units) and what set it: smoothingRel·ℓ, or noiseSmoothing·σ_p where that is
+/// larger and the input gives its own σ per point (docs/math.md#smoothing). What loadModel uses; `gpisvdb info` says it.
+std::pair<double, SmoothingSource> windingSmoothing(const InputSamples& input, const ModelOptions& options);
 
 /// The median of a winding model's mean γ at up to kOrientationSamples of the samples (every k-th): +1/2 where the
 /// samples' normals point outward, −1/2 where they point inward (docs/math.md#orientation).
