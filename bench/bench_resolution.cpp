@@ -10,10 +10,11 @@
 // (--picture, default docs/images/resolution_mu.png); --vdb-dir also writes each band for a volume renderer.
 // --values: μ and T at the voxels' centres (point, the default), the voxels' own shares (voxel, kacRiceVoxel), or as
 // `gpisvdb` chooses them (auto: voxel values where h > 1.25 w_μ). `--values auto --ratios 1,2,4,8,16` compares
-// coarse voxel-valued bands with a point-valued reference at h = w_μ (bench/results/coarse_voxels.json).
+// coarse voxel-valued bands with a point-valued reference at h = w_μ (bench/results/coarse_voxels.json); column: the
+// point band's voxels and their face neighbours with μ and T integrated along the axes (bench/column_values.h).
 // Usage: bench_resolution [--part sphere|bunny|pictures|all] [--sigma S1,S2,...] [--ratios R1,R2,...] [--max-voxels N]
 //        [--max-spectrum-voxels N] [--data DIR] [--out bench/results/resolution.json] [--picture FILE.png]
-//        [--vdb-dir DIR] [--values point|voxel|auto] [--sphere-level L (icosphere level, default 3)]
+//        [--vdb-dir DIR] [--values point|voxel|auto|column] [--sphere-level L (icosphere level, default 3)]
 // Rows of the (input, σ) pairs run replace those already in --out; the others stay.
 #include <algorithm>
 #include <cmath>
@@ -37,6 +38,7 @@
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/spectrum.h"
 
+#include "column_values.h"
 #include "timing.h"
 
 using namespace gpisvdb;
@@ -174,7 +176,10 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
         row["smoothing"] = analysis ? kVoxelSmoothing * h : 0.4 * samples.lengthScale;
         auto t = Clock::now();
         const BandResult br = buildBand(*rowModel, samples, o);
-        const Band& band = br.band;
+        const Band band = valueMode == "column"
+                              ? column::columnValues(*rowModel, br.band, o.iso, br.stats.etaAbsolute, o.qmcSamples, o.maxAnisotropy)
+                              : br.band;
+        if (valueMode == "column") row["values"] = "column";
         row["band_seconds"] = seconds(t);
         row["voxels"] = band.size();
         row["evaluated"] = br.stats.evaluated;
@@ -199,7 +204,10 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
                 BandOptions thick = o;
                 thick.etaRelative = 1e-6;
                 t = Clock::now();
-                const Band b = buildBand(*rowModel, samples, thick).band;
+                const BandResult tr = buildBand(*rowModel, samples, thick);
+                const Band b = valueMode == "column" ? column::columnValues(*rowModel, tr.band, thick.iso, tr.stats.etaAbsolute,
+                                                                            thick.qmcSamples, thick.maxAnisotropy)
+                                                     : tr.band;
                 const double tb = seconds(t);
                 const double e = energyX1(b);
                 lastThickN = double(b.size());
@@ -459,12 +467,12 @@ int main(int argc, char** argv) {
         else {
             std::cerr << "usage: bench_resolution [--part sphere|bunny|pictures|all] [--sigma S1,S2,...] [--ratios R1,R2,...] "
                          "[--max-voxels N] [--max-spectrum-voxels N] [--data DIR] [--out FILE.json] [--picture FILE.png] "
-                         "[--vdb-dir DIR] [--values point|voxel|auto] [--sphere-level L]\n";
+                         "[--vdb-dir DIR] [--values point|voxel|auto|column] [--sphere-level L]\n";
             return 2;
         }
     }
-    if (valueMode != "point" && valueMode != "voxel" && valueMode != "auto") {
-        std::cerr << "bench_resolution: --values must be point, voxel or auto\n";
+    if (valueMode != "point" && valueMode != "voxel" && valueMode != "auto" && valueMode != "column") {
+        std::cerr << "bench_resolution: --values must be point, voxel, auto or column\n";
         return 2;
     }
     if (part != "sphere" && part != "bunny" && part != "pictures" && part != "all") {
