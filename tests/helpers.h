@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include "gpisvdb/input/read_input.h"
 #include "gpisvdb/input/triangle_soup.h"
 
 namespace gpisvdb::test {
@@ -55,6 +56,20 @@ inline Vec3d randomUnit(std::mt19937_64& rng) {
     std::normal_distribution<double> n;
     Vec3d v(n(rng), n(rng), n(rng));
     return v.normalized();
+}
+
+/// n random points on the unit sphere (std::mt19937 from `seed`), normals radial, each with its own σ (world
+/// units): a scan of a sphere as a cloud with a σ column gives it.
+inline InputData sphereCloudWithSigma(int n, double sigma, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> g;
+    InputData data;
+    data.cloud = PointCloud{};
+    for (int i = 0; i < n; ++i) {
+        const Vec3d p = Vec3d(g(rng), g(rng), g(rng)).normalized();
+        data.cloud->positions.push_back(p), data.cloud->normals.push_back(p), data.cloud->sigmas.push_back(sigma);
+    }
+    return data;
 }
 
 }  // namespace gpisvdb::test

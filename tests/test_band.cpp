@@ -644,15 +644,7 @@ TEST_CASE("band: a cloud with its own sigma keeps its expected area from 1e3 to 
     // roughen with density and Σ μ h³ stays put (measured: 12.554 and 12.541, 4π = 12.566).
     std::vector<double> mass;
     for (int n : {1000, 10000}) {
-        std::mt19937 rng(5);
-        std::normal_distribution<double> g;
-        InputData data;
-        data.cloud = PointCloud{};
-        for (int i = 0; i < n; ++i) {
-            const Vec3d p = Vec3d(g(rng), g(rng), g(rng)).normalized();
-            data.cloud->positions.push_back(p), data.cloud->normals.push_back(p), data.cloud->sigmas.push_back(0.05);
-        }
-        const LoadedModel m = loadModel(data);
+        const LoadedModel m = loadModel(test::sphereCloudWithSigma(n, 0.05, 5));
         INFO(n << " points: l " << m.input.samples.lengthScale << ", s " << m.smoothing);
         CHECK(m.smoothingSource == SmoothingSource::Noise);
         CHECK(m.smoothing == Approx(1.2 * 0.05).epsilon(1e-9));

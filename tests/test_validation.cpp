@@ -4,7 +4,6 @@
 #include <cmath>
 #include <Eigen/IterativeLinearSolvers>
 #include <functional>
-#include <random>
 #include <sstream>
 
 #include "band_fixtures.h"
@@ -15,6 +14,7 @@
 #include "gpisvdb/stencil/resolution.h"
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/spectrum.h"
+#include "helpers.h"
 
 using namespace gpisvdb;
 
@@ -225,15 +225,7 @@ TEST_CASE("validation: a sphere scanned at 1e3, 1e4 and 1e5 points gives the sam
     std::vector<Figures> at;
     std::ostringstream log;
     for (int n : {1000, 10000, 100000}) {
-        std::mt19937 rng(11);
-        std::normal_distribution<double> g;
-        InputData data;
-        data.cloud = PointCloud{};
-        for (int i = 0; i < n; ++i) {
-            const Vec3d p = Vec3d(g(rng), g(rng), g(rng)).normalized();
-            data.cloud->positions.push_back(p), data.cloud->normals.push_back(p), data.cloud->sigmas.push_back(0.05);
-        }
-        const LoadedModel m = loadModel(data);
+        const LoadedModel m = loadModel(test::sphereCloudWithSigma(n, 0.05, 11));
         REQUIRE(m.smoothingSource == SmoothingSource::Noise);
         BandOptions o;
         o.voxelSize = 0.04;
