@@ -8,13 +8,13 @@
 // Pictures (--part pictures): μ on the mean surface of the sphere (σ_rel 1) and of the bunny's ears (σ_rel 0.5
 // unless --sigma), and on a slice through the ears, at h / w_μ = 0.5, 1, 1.25, 1.5, 2, 3 (unless --ratios): one PNG
 // (--picture, default docs/images/resolution_mu.png); --vdb-dir also writes each band for a volume renderer.
-// --values: μ and T at the voxels' centres (point, the default), the voxels' own shares (voxel, kacRiceVoxel), or as
-// `gpisvdb` chooses them (auto: voxel values where h > 1.25 w_μ). `--values auto --ratios 1,2,4,8,16` compares
-// coarse voxel-valued bands with a point-valued reference at h = w_μ (bench/results/coarse_voxels.json); column: the
-// point band's voxels and their face neighbours with μ and T integrated along the axes (bench/column_values.h).
+// --values: μ and T at the voxels' centres (point, the default), the voxels' own shares (voxel, kacRiceVoxel), their
+// means along the voxels' axes (column, kacRiceColumn), or as `gpisvdb` chooses them (auto: column values where
+// h > 2 w_μ). voxel-auto: voxel values where h > 1.25 w_μ, so that `--values voxel-auto --ratios 1,2,4,8` compares
+// coarse voxel-valued bands with a point-valued reference at h = w_μ (bench/results/coarse_voxels.json).
 // Usage: bench_resolution [--part sphere|bunny|pictures|all] [--sigma S1,S2,...] [--ratios R1,R2,...] [--max-voxels N]
 //        [--max-spectrum-voxels N] [--data DIR] [--out bench/results/resolution.json] [--picture FILE.png]
-//        [--vdb-dir DIR] [--values point|voxel|auto|column] [--sphere-level L (icosphere level, default 3)]
+//        [--vdb-dir DIR] [--values point|voxel|column|auto|voxel-auto] [--sphere-level L (icosphere level, default 3)]
 // Rows of the (input, σ) pairs run replace those already in --out; the others stay.
 #include <algorithm>
 #include <cmath>
@@ -38,7 +38,6 @@
 #include "gpisvdb/tasks/geodesic.h"
 #include "gpisvdb/tasks/spectrum.h"
 
-#include "column_values.h"
 #include "timing.h"
 
 using namespace gpisvdb;
@@ -164,22 +163,21 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
         // === The band a user gets (η = 0.01)
         BandOptions o;
         o.voxelSize = h;
-        o.voxelValues = valueMode == "voxel" || (valueMode == "auto" && ratio > kMuWidthFactor);
-        row["values"] = o.voxelValues ? "voxel" : "point";
+        if (valueMode == "voxel-auto") o.values = ratio > kMuWidthFactor ? VoxelValues::Voxel : VoxelValues::Point;
+        else if (valueMode == "auto") o.values = ratio > kColumnValuesRatio ? VoxelValues::Column : VoxelValues::Point;
+        else o.values = voxelValuesNamed(valueMode);
+        row["values"] = voxelValuesName(o.values);
         // With voxel values the winding model's s follows h, as `gpisvdb` makes it (planDefaultBandFor)
         const GpisModel* rowModel = &model;
         std::unique_ptr<BarnesHutGpis> analysis;
-        if (o.voxelValues && 0.4 * samples.lengthScale < kVoxelSmoothing * h) {
+        if (o.values == VoxelValues::Voxel && 0.4 * samples.lengthScale < kVoxelSmoothing * h) {
             analysis = std::make_unique<BarnesHutGpis>(samples, kVoxelSmoothing * h);
             rowModel = analysis.get();
         }
         row["smoothing"] = analysis ? kVoxelSmoothing * h : 0.4 * samples.lengthScale;
         auto t = Clock::now();
         const BandResult br = buildBand(*rowModel, samples, o);
-        const Band band = valueMode == "column"
-                              ? column::columnValues(*rowModel, br.band, o.iso, br.stats.etaAbsolute, o.qmcSamples, o.maxAnisotropy)
-                              : br.band;
-        if (valueMode == "column") row["values"] = "column";
+        const Band& band = br.band;
         row["band_seconds"] = seconds(t);
         row["voxels"] = band.size();
         row["evaluated"] = br.stats.evaluated;
@@ -205,9 +203,7 @@ nlohmann::json runInput(const Input& in, const std::vector<double>& ratiosAsked,
                 thick.etaRelative = 1e-6;
                 t = Clock::now();
                 const BandResult tr = buildBand(*rowModel, samples, thick);
-                const Band b = valueMode == "column" ? column::columnValues(*rowModel, tr.band, thick.iso, tr.stats.etaAbsolute,
-                                                                            thick.qmcSamples, thick.maxAnisotropy)
-                                                     : tr.band;
+                const Band& b = tr.band;
                 const double tb = seconds(t);
                 const double e = energyX1(b);
                 lastThickN = double(b.size());
@@ -467,12 +463,12 @@ int main(int argc, char** argv) {
         else {
             std::cerr << "usage: bench_resolution [--part sphere|bunny|pictures|all] [--sigma S1,S2,...] [--ratios R1,R2,...] "
                          "[--max-voxels N] [--max-spectrum-voxels N] [--data DIR] [--out FILE.json] [--picture FILE.png] "
-                         "[--vdb-dir DIR] [--values point|voxel|auto|column] [--sphere-level L]\n";
+                         "[--vdb-dir DIR] [--values point|voxel|column|auto|voxel-auto] [--sphere-level L]\n";
             return 2;
         }
     }
-    if (valueMode != "point" && valueMode != "voxel" && valueMode != "auto" && valueMode != "column") {
-        std::cerr << "bench_resolution: --values must be point, voxel, auto or column\n";
+    if (valueMode != "point" && valueMode != "voxel" && valueMode != "auto" && valueMode != "column" && valueMode != "voxel-auto") {
+        std::cerr << "bench_resolution: --values must be point, voxel, column, auto or voxel-auto\n";
         return 2;
     }
     if (part != "sphere" && part != "bunny" && part != "pictures" && part != "all") {

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <map>
 
+#include "gpisvdb/band/band_voxel_evaluator.h"
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb::mpi {
@@ -75,7 +76,7 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
         sampleVox = sampleVoxels(samples, o.voxelSize);  // checks the voxel size against the extent
         search = samplePartition(ranks, samples, o.voxelSize);
     });
-    const QmcRule rule(bandQmcSamples(o));
+    BandVoxelEvaluator evaluate(model, o);
     BandStats& stats = out.stats;
 
     // === Seeds: the samples' voxels and their 26 neighbours, each rank its own
@@ -98,7 +99,7 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
     std::size_t evaluatedHere = 0;
     const auto keep = [&](const std::vector<BandVoxel>& values) {
         for (const BandVoxel& v : values) {
-            if (!keepsVoxel(v, eta, o.voxelValues)) continue;
+            if (!keepsVoxel(v, eta, o.values)) continue;
             kept.push_back(v);
             for (const Coord& d : bfsNeighbourOffsets()) {
                 const Coord n = v.coord + d;
@@ -120,11 +121,11 @@ DistributedBand buildBandDistributed(const Ranks& ranks, const GpisModel& model,
             evaluatedHere += frontier.size();
             for (std::size_t b = 0; b < frontier.size(); b += o.batchVoxels) {
                 std::vector<BandVoxel> values =
-                    evaluateBandVoxels(model, frontier, b, std::min(frontier.size(), b + o.batchVoxels), o.voxelSize, o.iso, rule,
-                                       o.voxelValues, progress.interruptOnly(), stats);
+                    evaluate(frontier, b, std::min(frontier.size(), b + o.batchVoxels), progress.interruptOnly(), stats);
                 if (first) firstLevel.insert(firstLevel.end(), values.begin(), values.end());
                 else keep(values);
             }
+            evaluate.nextRound();
         });
         if (first) {
             // η: the median μ over all the samples' voxels, whichever rank evaluated them

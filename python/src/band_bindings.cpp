@@ -50,9 +50,7 @@ PyBand makeBand(const Model& m, std::optional<double> voxelSize, std::optional<d
     // As the command line: the budget applies to the default voxel size, and to a given resolution_scale only when
     // max_voxels is given too.
     o.maxBandVoxels = maxVoxels ? *maxVoxels : resolutionScale ? 0.0 : kDefaultMaxBandVoxels;
-    if (voxelValues == "point") o.values = VoxelValues::Point;
-    else if (voxelValues == "voxel") o.values = VoxelValues::Voxel;
-    else throw ParameterError("voxel_values must be 'point' or 'voxel' (got '" + voxelValues + "')");
+    if (voxelValues != "auto") o.values = voxelValuesNamed(voxelValues);
     if (maxMemory) {
         o.maxMemory = *maxMemory;
         if (!(o.maxMemory > 0) || !std::isfinite(o.maxMemory))
@@ -89,7 +87,7 @@ py::dict bandReport(const PyBand& b) {
         "iso"_a = b.built.options.iso, "eta_rel"_a = b.built.options.etaRelative, "eta"_a = st.etaAbsolute,
         "voxel_size"_a = b.built.options.voxelSize, "h_star"_a = b.built.resolution.hStar, "mu_width"_a = b.built.resolution.muWidth,
         "resolution_scale"_a = b.requested.resolutionScale, "qmc_samples"_a = b.built.options.qmcSamples,
-        "voxel_values"_a = b.built.options.voxelValues ? "voxel" : "point", "max_band_voxels"_a = b.built.maxBandVoxels,
+        "voxel_values"_a = voxelValuesName(b.built.options.values), "max_band_voxels"_a = b.built.maxBandVoxels,
         "voxel_size_by_budget"_a = b.built.budgeted, "accuracy_voxel_size"_a = b.built.accuracyVoxelSize,
         "accuracy_voxels"_a = b.built.accuracyVoxels, "voxel_size_note"_a = voxelSizeNote(b.built), "beta"_a = mo.barnesHut.beta,
         "exact"_a = mo.exact, "max_anisotropy"_a = b.built.options.maxAnisotropy, "max_memory_bytes"_a = b.built.maxMemory);
@@ -267,7 +265,7 @@ Written under a temporary name and renamed: an error or Ctrl-C leaves no file. R
     });
 
     m.def("band", &makeBand, "model"_a, py::kw_only(), "voxel_size"_a = py::none(), "resolution_scale"_a = py::none(),
-          "max_voxels"_a = py::none(), "voxel_values"_a = "point", "iso"_a = py::none(), "eta"_a = BandOptions{}.etaRelative,
+          "max_voxels"_a = py::none(), "voxel_values"_a = "auto", "iso"_a = py::none(), "eta"_a = BandOptions{}.etaRelative,
           "qmc"_a = BandOptions{}.qmcSamples, "max_anisotropy"_a = BandOptions{}.maxAnisotropy, "max_memory"_a = py::none(),
           "threads"_a = 0, "progress"_a = py::none(),
           R"doc(The narrow band of the GPIS with mu, T and the Selling stencils, as `gpisvdb band` builds it (docs/band.md).
@@ -277,8 +275,10 @@ Written under a temporary name and renamed: an error or Ctrl-C leaves no file. R
                     None: 1)
   max_voxels        band-voxel budget: a default voxel size that would make more band voxels is raised until the
                     band holds about this many (0: none; None: 4e6, or none when resolution_scale is given)
-  voxel_values      'point': mu and T at the voxels' centres; 'voxel': each voxel's own share of the expected
-                    surface (the winding model's s at least 2h)
+  voxel_values      'point': mu and T at the voxels' centres; 'column': their means along the voxels' axes;
+                    'voxel': each voxel's own share of the expected surface (the winding model's s at least 2h);
+                    'auto': column where the budget raised the voxel size above 2 w_mu,
+                    else point
   iso               iso-value u of the surface phi = u (None: 0.5 winding, 0 regression)
   eta               band threshold: keep mu > eta x (median mu at the samples' voxels) (> 0)
   qmc               QMC points S for mu and T (>= 1)

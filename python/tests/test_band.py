@@ -208,21 +208,22 @@ def test_bad_band_parameters_raise_typed_errors(model):
         gpisvdb.band(model, voxel_size=0.01, max_memory=1e6)
     assert isinstance(e.value, gpisvdb.ParameterError)
     assert "(max_memory)" in str(e.value) and "voxel size (voxel_size) of" in str(e.value)
+    with pytest.raises(gpisvdb.ParameterError, match=r"voxel values \(voxel_values\)"):
+        gpisvdb.band(model, voxel_values="centre")
     with pytest.raises(TypeError):
         gpisvdb.band("not a model")
 
 
-def test_help_reads_like_the_command_line_help():
-    doc = gpisvdb.band.__doc__
-    for words in ["voxel_size", "world units", "max_memory", "MemoryLimitError", "Ctrl-C", "Example"]:
-        assert words in doc
-    assert "band(model: gpisvdb._core.Model, *, voxel_size" in doc
-
-
-def test_pyopenvdb_grids_hold_the_channels(band):
-    grids = band.pyopenvdb_grids(channels={"height": band.world[:, 2]})
-    assert {"mu", "T_diag", "normal", "height"} <= set(grids)
-    acc = grids["mu"].getConstAccessor()
-    for i in [0, len(band) // 2, len(band) - 1]:
-        assert acc.getValue(tuple(int(c) for c in band.coords[i])) == band.mu[i]
-    assert grids["T_diag"].valueTypeName.startswith("vec3")
+def test_voxel_values_follow_the_budget_and_are_reported(model):
+    # the default h is at most 1.25 w_mu: the centres' values; a budget that raises h past 2 w_mu: their means
+    # along the axes; a voxel size given keeps the centres' values unless asked
+    fine = gpisvdb.band(model)
+    assert fine.report["parameters"]["voxel_values"] == "point"
+    coarse = gpisvdb.band(model, max_voxels=2000)
+    par = coarse.report["parameters"]
+    assert par["voxel_size_by_budget"] and par["voxel_size"] > 2 * par["mu_width"]
+    assert par["voxel_values"] == "column"
+    assert "column values" in par["voxel_size_note"]
+    assert gpisvdb.band(model, voxel_size=coarse.voxel_size).report["parameters"]["voxel_values"] == "point"
+    column = gpisvdb.band(model, voxel_size=coarse.voxel_size, voxel_values="column")
+    assert len(column) == len(coarse) and column.report["band"]["mass"] == pytest.approx(coarse.report["band"]["mass"], rel=1e-12)

@@ -48,11 +48,12 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
                    "with it)")
         ->each([&f](const std::string&) { f.maxBandVoxelsGiven = true; })
         ->capture_default_str();
-    const std::map<std::string, VoxelValues> values = {{"point", VoxelValues::Point}, {"voxel", VoxelValues::Voxel}};
     cmd.add_option("--voxel-values", f.voxelValues,
-                   "mu and T at the voxels' centres (point, the default) or as each voxel's own share of the expected "
-                   "surface (voxel; the winding model's s is then at least 2h)")
-        ->transform(CLI::CheckedTransformer(values));
+                   "mu and T at the voxels' centres (point), as their means along the voxels' axes (column), or as each "
+                   "voxel's own share of the expected surface (voxel; the winding model's s is then at least 2h); auto: "
+                   "column where the band-voxel budget raised the voxel size above 2 w_mu, else point")
+        ->check(CLI::IsMember({"auto", "point", "voxel", "column"}))
+        ->capture_default_str();
     cmd.add_option("--qmc", f.band.qmcSamples, "QMC points S for mu and T (>= 1)")->capture_default_str();
     cmd.add_option("--max-anisotropy", f.band.maxAnisotropy, "T is regularised to sqrt(lmax/lmin) <= this (>= 1)")->capture_default_str();
     cmd.add_option("--max-memory", f.maxMemory, "refuse bands needing more memory than this (default: half the RAM)");
@@ -77,7 +78,7 @@ DefaultBandOptions defaultBandOptions(const BandFlags& flags) {
     options.band = flags.band;
     options.resolutionScale = flags.resolutionScale;
     options.maxBandVoxels = flags.resolutionScaleGiven && !flags.maxBandVoxelsGiven ? 0.0 : flags.maxBandVoxels;
-    options.values = flags.voxelValues;
+    if (flags.voxelValues != "auto") options.values = voxelValuesNamed(flags.voxelValues);
     options.maxMemory = flags.maxMemory.empty() ? 0 : parseBytes(flags.maxMemory);
     return options;
 }
@@ -262,7 +263,7 @@ nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
           {"h_star", job.resolution.hStar},
           {"mu_width", job.resolution.muWidth},
           {"resolution_scale", flags.resolutionScale},
-          {"voxel_values", job.options.voxelValues ? "voxel" : "point"},
+          {"voxel_values", voxelValuesName(job.options.values)},
           {"max_band_voxels", job.maxBandVoxels},
           {"voxel_size_by_budget", job.budgeted},
           {"accuracy_voxel_size", job.accuracyVoxelSize},

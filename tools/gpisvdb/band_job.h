@@ -24,11 +24,11 @@ struct BandFlags {
     bool resolutionScaleGiven = false;             ///< --resolution-scale was given: the budget applies only with --max-voxels
     double maxBandVoxels = kDefaultMaxBandVoxels;  ///< --max-voxels (0: none)
     bool maxBandVoxelsGiven = false;
-    std::string budgetDefaultWhy;                  ///< why this command's default budget is not kDefaultMaxBandVoxels (the note says it)
-    VoxelValues voxelValues = VoxelValues::Point;  ///< --voxel-values
-    std::string maxMemory;                         ///< "8G", "512M", "1e9"; empty: half the RAM
-    std::string report;                            ///< JSON report path; empty: none
-    VdbWriteOptions vdb;                           ///< --half, --stencils, --fog-name, --nanovdb (or an output ending in .nvdb)
+    std::string budgetDefaultWhy;      ///< why this command's default budget is not kDefaultMaxBandVoxels (the note says it)
+    std::string voxelValues = "auto";  ///< --voxel-values: auto, point, voxel or column
+    std::string maxMemory;             ///< "8G", "512M", "1e9"; empty: half the RAM
+    std::string report;                ///< JSON report path; empty: none
+    VdbWriteOptions vdb;               ///< --half, --stencils, --fog-name, --nanovdb (or an output ending in .nvdb)
 };
 void addBandFlags(CLI::App& cmd, BandFlags& flags);
 

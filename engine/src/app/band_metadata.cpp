@@ -32,7 +32,7 @@ openvdb::MetaMap bandMetadata(const BandProvenance& provenance, const ModelOptio
     meta.insertMeta("voxel_size", openvdb::DoubleMetadata(options.voxelSize));
     meta.insertMeta("h_star", openvdb::DoubleMetadata(resolution.hStar));
     meta.insertMeta("mu_width", openvdb::DoubleMetadata(resolution.muWidth));
-    meta.insertMeta("voxel_values", openvdb::StringMetadata(options.voxelValues ? "voxel" : "point"));
+    meta.insertMeta("voxel_values", openvdb::StringMetadata(voxelValuesName(options.values)));
     meta.insertMeta("voxel_size_set_by_budget", openvdb::BoolMetadata(budgeted));
     meta.insertMeta("qmc_samples", openvdb::Int32Metadata(options.qmcSamples));
     meta.insertMeta("beta", openvdb::DoubleMetadata(modelOptions.barnesHut.beta));

@@ -12,6 +12,7 @@ const std::vector<ParameterName>& parameterNames() {
         {"BandOptions::iso", "--iso", "iso"},
         {"BandOptions::qmcSamples", "--qmc", "qmc"},
         {"BandOptions::maxAnisotropy", "--max-anisotropy", "max_anisotropy"},
+        {"BandOptions::values", "--voxel-values", "voxel_values"},
         {"BandOptions::maxVoxels", "--max-memory", "max_memory"},
         {"BandOptions::batchVoxels", "", ""},
         {"DefaultBandOptions::maxMemory", "--max-memory", "max_memory"},

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "gpisvdb/band/band_voxel_evaluator.h"
 #include "gpisvdb/core/errors.h"
-#include "gpisvdb/kacrice/qmc_rule.h"
 
 namespace gpisvdb {
 
@@ -55,7 +55,7 @@ BandForecast forecastBand(const GpisModel& model, const Samples& samples, const 
     const PilotRegion region = pilotRegion(seeds, radius, options.patches);
 
     // === The pilot: buildBand's search inside the region's boxes, η from the region's seeds
-    const QmcRule rule(bandQmcSamples(o));
+    BandVoxelEvaluator evaluate(model, o);
     const Progress quiet = progress.interruptOnly();
     BandStats stats;
     openvdb::MaskGrid visited(false);
@@ -74,8 +74,8 @@ BandForecast forecastBand(const GpisModel& model, const Samples& samples, const 
     std::vector<Coord> evaluated;
     while (!frontier.empty()) {
         progress.checkInterrupt();
-        const std::vector<BandVoxel> values =
-            evaluateBandVoxels(model, frontier, 0, frontier.size(), o.voxelSize, o.iso, rule, o.voxelValues, quiet, stats);
+        const std::vector<BandVoxel> values = evaluate(frontier, 0, frontier.size(), quiet, stats);
+        evaluate.nextRound();
         evaluated.insert(evaluated.end(), frontier.begin(), frontier.end());
         if (eta == 0) {
             std::vector<double> mus;
@@ -85,7 +85,7 @@ BandForecast forecastBand(const GpisModel& model, const Samples& samples, const 
         }
         frontier.clear();
         for (const BandVoxel& v : values)
-            if (keepsVoxel(v, eta, o.voxelValues)) {
+            if (keepsVoxel(v, eta, o.values)) {
                 ++kept;
                 for (const Coord& d : bfsNeighbourOffsets()) visit(v.coord + d);
             }
@@ -96,7 +96,8 @@ BandForecast forecastBand(const GpisModel& model, const Samples& samples, const 
     double seconds = std::numeric_limits<double>::infinity();
     for (int repeat = 0; repeat < 2; ++repeat) {
         const auto start = Clock::now();
-        evaluateBandVoxels(model, evaluated, 0, evaluated.size(), o.voxelSize, o.iso, rule, o.voxelValues, quiet, stats);
+        BandVoxelEvaluator again(model, o);  // nothing held: the column values' neighbours are evaluated as in the band
+        again(evaluated, 0, evaluated.size(), quiet, stats);
         seconds = std::min(seconds, since(start));
     }
 

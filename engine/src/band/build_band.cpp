@@ -8,9 +8,8 @@
 #include <tbb/parallel_for.h>
 
 #include "../core/heap_reuse.h"
+#include "gpisvdb/band/band_voxel_evaluator.h"
 #include "gpisvdb/core/errors.h"
-#include "gpisvdb/kacrice/kac_rice.h"
-#include "gpisvdb/kacrice/kac_rice_voxel.h"
 #include "gpisvdb/stencil/resolution.h"
 #include "gpisvdb/stencil/selling.h"
 
@@ -198,35 +197,20 @@ BandResult finish(FoundVoxels&& found, const BandOptions& o, const BandStats& st
 
 }  // namespace
 
-std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<Coord>& coords, std::size_t begin, std::size_t end,
-                                          double h, double iso, const QmcRule& rule, bool voxelValues, const Progress& progress,
-                                          BandStats& stats) {
-    auto t = Clock::now();
-    const std::size_t n = end - begin;
-    std::vector<Vec3d> xs(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const Coord& c = coords[begin + i];
-        xs[i] = h * Vec3d(c.x(), c.y(), c.z());
+const char* voxelValuesName(VoxelValues values) {
+    switch (values) {
+        case VoxelValues::Voxel: return "voxel";
+        case VoxelValues::Column: return "column";
+        default: return "point";
     }
-    const std::vector<ValueGradient> z = model.evaluateDense(xs, progress);
-    stats.modelSeconds += since(t);
-    t = Clock::now();
-    std::vector<BandVoxel> out(n);
-    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
-        progress.checkInterruptAt(i);
-        const SurfaceDensity d = voxelValues ? kacRiceVoxel(z[i], iso, h, rule) : kacRice(z[i], iso, rule);
-        const double g = d.meanGradient.norm();
-        const bool crossed = voxelValues && meanSurfaceCrosses(z[i], iso, h);
-        out[i] = {coords[begin + i],
-                  d.mu,
-                  d.T,
-                  z[i].mean[0],
-                  std::sqrt(std::max(0.0, z[i].cov(0, 0))),
-                  g > 0 ? Vec3d(-d.meanGradient / g) : Vec3d::Zero(),
-                  crossed};
-    });
-    stats.kacRiceSeconds += since(t);
-    return out;
+}
+
+VoxelValues voxelValuesNamed(const std::string& name) {
+    for (VoxelValues v : {VoxelValues::Point, VoxelValues::Voxel, VoxelValues::Column})
+        if (name == voxelValuesName(v)) return v;
+    throw ParameterError(
+        "the voxel values (BandOptions::values) must be 'point', 'voxel', 'column' or, for a default band, 'auto' (got '" + name + "')",
+        {"BandOptions::values"});
 }
 
 std::vector<Coord> sampleVoxels(const Samples& samples, double h) {
@@ -283,22 +267,16 @@ double absoluteEta(const std::vector<BandVoxel>& values, const std::vector<Coord
 /// One round of either builder: evaluates a BFS level (or a scan box) in batches, keeps the voxels with μ > η
 /// (the first round also fixes η, so its voxels wait for it) and hands each kept voxel to `kept` in order.
 struct Rounds {
-    const GpisModel& model;
     const BandOptions& options;
     const Progress& progress;
-    const QmcRule rule;
+    BandVoxelEvaluator evaluate;
     const std::vector<Coord> sampleVox;
     BandStats stats;
     FoundVoxels found;
     double eta = 0;
 
     Rounds(const GpisModel& m, const Samples& samples, const BandOptions& o, const Progress& p)
-        : model(m),
-          options(o),
-          progress(p),
-          rule(bandQmcSamples(o)),
-          sampleVox(sampleVoxels(samples, o.voxelSize)),
-          found(o.maxAnisotropy) {}
+        : options(o), progress(p), evaluate(m, o), sampleVox(sampleVoxels(samples, o.voxelSize)), found(o.maxAnisotropy) {}
 
     template <class Kept>
     void round(const std::vector<Coord>& coords, Kept&& kept) {
@@ -311,8 +289,7 @@ struct Rounds {
         // so neither does the band; the batch bounds the transient memory whatever the size of a BFS level.
         for (std::size_t begin = 0; begin < coords.size(); begin += options.batchVoxels) {
             const std::size_t end = std::min(coords.size(), begin + options.batchVoxels);
-            std::vector<BandVoxel> values = evaluateBandVoxels(model, coords, begin, end, options.voxelSize, options.iso, rule,
-                                                               options.voxelValues, progress.interruptOnly(), stats);
+            std::vector<BandVoxel> values = evaluate(coords, begin, end, progress.interruptOnly(), stats);
             if (first) {
                 firstRound.insert(firstRound.end(), values.begin(), values.end());
                 continue;
@@ -323,6 +300,7 @@ struct Rounds {
             eta = absoluteEta(firstRound, sampleVox, options.etaRelative, stats);
             keep(firstRound, kept);
         }
+        evaluate.nextRound();
     }
 
 private:
@@ -330,7 +308,7 @@ private:
     void keep(const std::vector<BandVoxel>& values, Kept& kept) {
         std::vector<std::uint32_t> index;
         for (std::size_t i = 0; i < values.size(); ++i)
-            if (keepsVoxel(values[i], eta, options.voxelValues)) index.push_back(std::uint32_t(i));
+            if (keepsVoxel(values[i], eta, options.values)) index.push_back(std::uint32_t(i));
         auto t = Clock::now();
         found.append(values, index);
         stats.kacRiceSeconds += since(t);  // the Selling stencils, with μ and T's other channels

@@ -33,18 +33,22 @@ double bandWriteBytes(double voxels) {
     return voxels * (kFoundBytesPerVoxel + 4.0 * kIndexTreeBytesPerVoxel);
 }
 
-BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes, bool voxelValues) {
+BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes, VoxelValues values) {
     BandEstimate e;
     // === Voxel counts: the shell where μ > η (Resolution::bandVolume) and about half a voxel on either side (with
-    // voxel values, the reach of the cubes' cross-sections); the build also evaluates the rejected shell, a voxel or
-    // two on each side (measured, docs/memory.md#band).
-    const double shell = voxelValues ? kVoxelValueShellVoxels : kBandShellVoxels;
-    const double volume = voxelValues ? kVoxelValueBandVolume * bandVolume : bandVolume;
+    // voxel or column values, the reach of the cubes' cross-sections or of the axes' segments); the build also
+    // evaluates the rejected shell, a voxel or two on each side (measured, docs/memory.md#band).
+    const bool reach = values != VoxelValues::Point;
+    const double shell = reach ? kVoxelValueShellVoxels : kBandShellVoxels;
+    const double volume = reach ? kVoxelValueBandVolume * bandVolume : bandVolume;
     e.voxels = (volume + shell * area * h) / (h * h * h);
     e.evaluated = (volume + (shell + 3.0) * area * h) / (h * h * h);
     e.memory.baselineBytes = baselineBytes;
     const double build = bandBuildBytes(e.voxels, e.evaluated, batchVoxels), write = bandWriteBytes(e.voxels);
     e.memory.parts = {{build >= write ? "building the band" : "writing the band as .vdb", std::max(build, write)}};
+    if (values == VoxelValues::Column)
+        e.memory.parts.emplace_back("the centres' Gaussians (column values)",
+                                    kColumnCentreBytes * kColumnCentresPerEvaluatedVoxel * e.evaluated);
     return e;
 }
 
@@ -85,14 +89,14 @@ DefaultBandPlan planDefaultBand(const GpisModel& model, const Samples& samples, 
     out.options.iso = iso;
     const bool given = out.options.voxelSize > 0;
     double h = given ? out.options.voxelSize : out.resolution.h;
-    const bool voxelValues = options.values == VoxelValues::Voxel;
+    VoxelValues values = options.values.value_or(VoxelValues::Point);
 
     // === Estimate before allocating (docs/memory.md#band)
     const double baseline = settledResidentBytes();
     // What the model keeps while it evaluates the band (its cell tables, docs/memory.md#band) does not depend on h.
     const double modelCache = model.expectedDenseCacheBytes();
     const auto estimate = [&](double hh) {
-        BandEstimate e = estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline, voxelValues);
+        BandEstimate e = estimateBand(out.resolution.bandVolume, out.resolution.area, hh, bo.batchVoxels, baseline, values);
         if (modelCache > 0) e.memory.parts.emplace_back("the model's tables", modelCache);
         return e;
     };
@@ -101,12 +105,21 @@ DefaultBandPlan planDefaultBand(const GpisModel& model, const Samples& samples, 
 
     // === The band-voxel budget (docs/band.md#budget): the default h raised, in steps of 1 %, until the band fits
     out.maxBandVoxels = given ? 0.0 : options.maxBandVoxels;
-    if (!given && options.maxBandVoxels > 0 && out.accuracyVoxels > options.maxBandVoxels) {
+    const auto fitBudget = [&] {
+        if (given || !(options.maxBandVoxels > 0) || !(estimate(h).voxels > options.maxBandVoxels)) return;
         for (int k = 0; k < 5000 && estimate(h).voxels > options.maxBandVoxels; ++k) h *= 1.01;
         out.budgeted = true;
+    };
+    fitBudget();
+    // === The values: column values where the budget raised h well above μ's width (docs/band.md#coarse-voxels), and
+    // the budget fitted again to their band, whose segments reach further than the centres. A voxel size given is
+    // the user's choice of cost, and keeps the centres' values unless column values are asked for.
+    if (!options.values && out.budgeted && h > kColumnValuesRatio * out.resolution.muWidth) {
+        values = VoxelValues::Column;
+        fitBudget();
     }
     out.options.voxelSize = h;
-    out.options.voxelValues = voxelValues;
+    out.options.values = values;
     out.estimate = estimate(h);
     const double voxels = out.estimate.voxels;
     if (!(voxels <= kMaxBandVoxels))  // absurd whatever the memory: refused before the model is evaluated
@@ -152,7 +165,7 @@ DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, con
 
 double smoothingForPlan(const DefaultBandPlan& plan, const LoadedModel& model) {
     const double want = kVoxelSmoothing * plan.options.voxelSize;
-    return plan.options.voxelValues && model.trainingSize == 0 && model.smoothing < want ? want : 0.0;
+    return plan.options.values == VoxelValues::Voxel && model.trainingSize == 0 && model.smoothing < want ? want : 0.0;
 }
 
 DefaultBandPlan replanForSmoothing(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options,
@@ -181,9 +194,9 @@ DefaultBandPlan planDefaultBandFor(LoadedModel& model, const ModelOptions& model
 
 namespace {
 
-/// What the centres' values gave on the unit-sphere soup at σ_rel 0.5 against h = w_μ (bench/results/coarse_points.json,
-/// docs/benchmarks.md#coarse-voxels): up to each h / w_μ, the expected area's, the Dirichlet energy's and the l = 1
-/// gap's error, in %.
+/// What a band's values gave on the unit-sphere soup at σ_rel 0.5 against the centres' values at h = w_μ
+/// (docs/benchmarks.md#coarse-voxels, #column-values): up to each h / w_μ, the expected area's, the Dirichlet energy's
+/// and the l = 1 gap's error.
 struct MeasuredAccuracy {
     double ratio;
     const char* errors;
@@ -194,6 +207,21 @@ constexpr MeasuredAccuracy kPointAccuracy[] = {
     {4, "area +2.2 %, energy +2.2 %, l = 1 gap -4.9 %"},
     {8, "area +13 %, energy +36 %, l = 1 gap -25 %"},
 };
+constexpr MeasuredAccuracy kColumnAccuracy[] = {
+    {2, "area +0.02 %, energy -0.02 %, l = 1 gap -0.6 %"},
+    {4, "area +0.02 %, energy -0.11 %, l = 1 gap -3.0 %"},
+    {8, "area -0.28 %, energy -0.21 %, l = 1 gap -15 %"},
+    {16, "area +20 %, energy +33 %, l = 1 gap -53 %"},
+};
+
+template <std::size_t N>
+std::string accuracyNote(double ratio, const MeasuredAccuracy (&table)[N], const char* anchor) {
+    for (const MeasuredAccuracy& m : table)
+        if (ratio <= m.ratio * (1 + 1e-9))
+            return std::string(" (measured on a sphere up to h/w_mu = ") + numberText(m.ratio) + ": " + m.errors + "; docs/benchmarks.md#" +
+                   anchor + ")";
+    return " (coarser than any h/w_mu measured, " + numberText(table[N - 1].ratio) + ": docs/benchmarks.md#" + anchor + ")";
+}
 
 }  // namespace
 
@@ -203,17 +231,17 @@ std::string voxelSizeNote(const DefaultBandPlan& band) {
     if (!(w > 0)) return note;
     const double ratio = h / w;
     note += " = " + numberText(std::round(ratio * 100) / 100) + " w_mu (mu's width " + numberText(w) + ")";
-    if (!band.options.voxelValues) {
-        note += "; mu and T are the values at the voxels' centres";
-        for (const MeasuredAccuracy& m : kPointAccuracy)
-            if (ratio <= m.ratio * (1 + 1e-9))
-                return note + " (measured on a sphere up to h/w_mu = " + numberText(m.ratio) + ": " + m.errors +
-                       "; docs/benchmarks.md#coarse-voxels)";
-        return note + " (coarser than any h/w_mu measured, 8: docs/benchmarks.md#coarse-voxels)";
+    switch (band.options.values) {
+        case VoxelValues::Point:
+            return note + "; mu and T are the values at the voxels' centres" + accuracyNote(ratio, kPointAccuracy, "coarse-voxels");
+        case VoxelValues::Column:
+            return note + "; mu and T are their means along the voxels' axes (column values)" +
+                   accuracyNote(ratio, kColumnAccuracy, "column-values");
+        default:
+            return note +
+                   "; mu and T are the voxels' own shares, s at least 2h (their accuracy by h/w_mu: "
+                   "docs/benchmarks.md#coarse-voxels)";
     }
-    return note +
-           "; mu and T are the voxels' own shares, s at least 2h (their accuracy by h/w_mu: "
-           "docs/benchmarks.md#coarse-voxels)";
 }
 
 }  // namespace gpisvdb

@@ -4,6 +4,7 @@
 // every voxel they visit, and keep the voxels with μ > η.
 #include <array>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "gpisvdb/band/band.h"
@@ -14,6 +15,21 @@
 
 namespace gpisvdb {
 
+/// How a band's μ and T are sampled at each voxel (docs/band.md#coarse-voxels).
+enum class VoxelValues {
+    Point,  ///< the values at the voxels' centres (paper Eq. 11, 16)
+    /// each voxel's own share, the expected area inside it and its tangent moment over h³, from the centre's Gaussian
+    /// linearised across the cube (kacRiceVoxel); the band also keeps every voxel the mean surface crosses
+    Voxel,
+    /// the means along each voxel's three axes on the Gaussian interpolated between neighbouring centres
+    /// (kacRiceColumn). For voxels coarser than μ's width.
+    Column,
+};
+/// "point", "voxel" or "column": the name the CLI, the report and the .vdb metadata use.
+const char* voxelValuesName(VoxelValues values);
+/// The values of that name; throws ParameterError for any other name.
+VoxelValues voxelValuesNamed(const std::string& name);
+
 struct BandOptions {
     double voxelSize = 0;                            ///< h, world units (> 0; see chooseResolution)
     double iso = 0.5;                                ///< iso-value u of the surface φ = u
@@ -23,10 +39,7 @@ struct BandOptions {
     std::size_t maxVoxels = 0;                       ///< refuse once more voxels than this would be evaluated (0: no limit)
     std::size_t batchVoxels = std::size_t(1) << 17;  ///< voxels evaluated together (≥ 1): bounds the build's transient
                                                      ///< memory (≈ 330 bytes each); the band does not depend on it
-    /// μ and T as each voxel's own share, the expected area inside it and its tangent moment over h³ (kacRiceVoxel),
-    /// instead of their values at its centre; the band then also keeps every voxel that the linearised mean surface
-    /// crosses. For voxels coarser than μ's width (docs/band.md#coarse-voxels), where centres miss the μ shell.
-    bool voxelValues = false;
+    VoxelValues values = VoxelValues::Point;         ///< how μ and T are sampled at each voxel (docs/band.md#coarse-voxels)
 };
 
 struct BandStats {
@@ -56,7 +69,7 @@ struct BandVoxel {
     double mean = 0;               ///< γ
     double stddev = 0;             ///< √c₀₀
     Vec3d normal = Vec3d::Zero();  ///< outward unit normal
-    bool crossed = false;          ///< the mean surface γ = u, linearised at the centre, passes through the voxel
+    bool crossed = false;          ///< voxel values: the mean surface γ = u, linearised at the centre, passes through the voxel
 };
 
 /// The band over `voxels` (distinct coordinates): the index tree in leaf order, the channels, and the Selling
@@ -81,21 +94,17 @@ std::vector<openvdb::Coord> sampleVoxels(const Samples& samples, double voxelSiz
 constexpr int kBfsNeighbours = 26;
 const std::array<openvdb::Coord, kBfsNeighbours>& bfsNeighbourOffsets();
 
-/// The GPIS, then μ, T, γ, √c₀₀ and the normal by Kac–Rice, at the voxel centres h·c of coords[begin, end), in
-/// parallel (μ and T the voxels' own shares when voxelValues); the seconds of each part are added to
-/// stats.modelSeconds and stats.kacRiceSeconds. A voxel's result does not depend on the others evaluated with it.
-std::vector<BandVoxel> evaluateBandVoxels(const GpisModel& model, const std::vector<openvdb::Coord>& coords, std::size_t begin,
-                                          std::size_t end, double voxelSize, double iso, const QmcRule& rule, bool voxelValues,
-                                          const Progress& progress, BandStats& stats);
-
-/// The QMC points a band's μ and T take: S, or S/4 (at least 1) with voxel values, whose integrand the cube's
-/// average smooths (S/4 = 128 is within 1 % of 8192 points; docs/band.md#coarse-voxels).
+/// The QMC points a band's μ and T take: S, or S/4 (at least 1) with voxel or column values, whose integrands the
+/// cube's or the segments' average smooths (voxel values: S/4 = 128 is within 1 % of 8192 points; column values: the
+/// sphere soup's area, energy and l = 1 gap within 0.03 % of S's at 2 to 8 w_μ; docs/band.md#coarse-voxels).
 inline int bandQmcSamples(const BandOptions& options) {
-    return options.voxelValues ? (options.qmcSamples >= 4 ? options.qmcSamples / 4 : 1) : options.qmcSamples;
+    return options.values != VoxelValues::Point ? (options.qmcSamples >= 4 ? options.qmcSamples / 4 : 1) : options.qmcSamples;
 }
 
 /// Whether a band keeps a voxel: μ > η, or (with voxel values) the mean surface crosses it.
-inline bool keepsVoxel(const BandVoxel& v, double eta, bool voxelValues) { return v.mu > eta || (voxelValues && v.crossed && v.mu > 0); }
+inline bool keepsVoxel(const BandVoxel& v, double eta, VoxelValues values) {
+    return v.mu > eta || (values == VoxelValues::Voxel && v.crossed && v.mu > 0);
+}
 
 /// η = etaRelative × the median of `mus` (μ at the samples' voxels); sets stats.medianSampleMu and etaAbsolute.
 /// Throws InputError when the median is not positive.

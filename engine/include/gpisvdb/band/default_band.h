@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include "gpisvdb/band/build_band.h"
@@ -43,7 +44,7 @@ constexpr double kMaxBandVoxels = 5e8;
 /// 2 cores (docs/benchmarks.md#coarse-voxels).
 constexpr double kDefaultMaxBandVoxels = 4e6;
 
-/// With voxel values (BandOptions::voxelValues) the band is (kVoxelValueBandVolume·bandVolume + kVoxelValueShellVoxels·
+/// With voxel or column values (BandOptions::values) the band is (kVoxelValueBandVolume·bandVolume + kVoxelValueShellVoxels·
 /// area·h)/h³ voxels: the cubes' cross-sections reach ½ h ‖n‖₁ past their centres on each side (1.5 h on average over
 /// the directions), and the μ profile's tails beyond them are thinner than μ's own (fitted to eight bands of sphere
 /// clouds at h/w_μ 1.5–3, within 5 %).
@@ -67,17 +68,19 @@ double bandBuildBytes(double voxels, double evaluated, std::size_t batchVoxels, 
 double bandWriteBytes(double voxels);
 
 /// The estimate for a band of cross-section `bandVolume` and surface `area` (Resolution::bandVolume and area; world
-/// units³ and ²) at voxel size h, batch size and the resident set before the build (bytes); `voxelValues` as
-/// BandOptions::voxelValues.
+/// units³ and ²) at voxel size h, batch size and the resident set before the build (bytes), with `values` as
+/// BandOptions::values.
 BandEstimate estimateBand(double bandVolume, double area, double h, std::size_t batchVoxels, double baselineBytes,
-                          bool voxelValues = false);
+                          VoxelValues values = VoxelValues::Point);
 
-/// How a band's μ and T are sampled (BandOptions::voxelValues). Point is the default: on the sphere soup it keeps the
-/// expected area, energy and spectrum closer than voxel values up to h = 4 w_μ (docs/benchmarks.md#coarse-voxels).
-enum class VoxelValues {
-    Point,  ///< the values at the voxels' centres (paper Eq. 11, 16)
-    Voxel,  ///< the voxels' own shares (kacRiceVoxel), the winding model's s at least kVoxelSmoothing·h
-};
+/// With the values left to the plan (DefaultBandOptions::values unset), column values where the band-voxel budget
+/// raised h above this many w_μ, the centres' values below (and at a voxel size given): up to 2 w_μ both keep the sphere's area, energy and
+/// l = 1 gap within 1 %, and the centres' cost a seventh of the columns' model evaluations and Kac–Rice (docs/benchmarks.md#column-values).
+constexpr double kColumnValuesRatio = 2.0;
+/// Gaussians a column-valued build holds per evaluated voxel at most (this round's and the last round's centres and
+/// face neighbours; the first round, which at coarse voxels is most of the band, sets it), and bytes each.
+constexpr double kColumnCentresPerEvaluatedVoxel = 1.3;
+constexpr double kColumnCentreBytes = 168;
 
 /// What builds the band once its options are resolved: buildBand by default; a distributed build (mpi/) returns this
 /// process's part of the band with the whole band's statistics.
@@ -93,8 +96,9 @@ struct DefaultBandOptions {
     /// The band-voxel budget: when band.voxelSize is 0 and the default h would make a band of more voxels than this
     /// (estimated), h is raised until it holds about this many (≥ 1000; 0: no budget). Ignored for a given voxel size.
     double maxBandVoxels = kDefaultMaxBandVoxels;
-    VoxelValues values = VoxelValues::Point;  ///< sets band.voxelValues
-    BandBuilder build;                        ///< empty: buildBand
+    /// Sets band.values; unset: column values where the budget raised h above kColumnValuesRatio·w_μ, else point.
+    std::optional<VoxelValues> values;
+    BandBuilder build;  ///< empty: buildBand
 };
 
 /// What buildDefaultBand will build, decided before the model is evaluated at a single voxel (planDefaultBand).
@@ -115,7 +119,7 @@ struct DefaultBand : DefaultBandPlan {
     BandResult result;
 };
 
-/// h / w_μ of a band and whether its values are the voxels' own shares, in words for reports and messages, with where
+/// h / w_μ of a band and how its values are sampled, in words for reports and messages, with where
 /// the docs give their accuracy at each h / w_μ (docs/benchmarks.md#coarse-voxels).
 std::string voxelSizeNote(const DefaultBandPlan& band);
 

@@ -75,6 +75,8 @@ public:
     /// The tables a band near the samples will add to those held: 1.5 per cell holding a sample (measured 1.1–1.8
     /// on the bunny, a sphere, a cloud and a mesh with holes, docs/memory.md#band), within cellCacheLimit().
     double expectedDenseCacheBytes() const override;
+    /// The winding number's mean is a probability of being inside, ≈ Φ(−d/s) across the surface.
+    MeanScale meanScale() const override { return MeanScale::Probit; }
 
     /// Tree topology and the opening test: what every visit reads, kept small for the cache.
     struct Node {

@@ -12,6 +12,7 @@ public:
     DirectGpis(Samples samples, double s);
     using GpisModel::evaluate;
     ValueGradient evaluate(const Vec3d& x) const override;
+    MeanScale meanScale() const override { return MeanScale::Probit; }  ///< as BarnesHutGpis
 
 private:
     Samples samples_;

@@ -14,6 +14,12 @@ struct ValueGradient {
     Mat4d cov = Mat4d::Zero();   ///< covariance of (φ, ∂xφ, ∂yφ, ∂zφ)
 };
 
+/// The scale in which a model's mean γ is about linear in the distance across its surface (kacrice/kac_rice_column.h).
+enum class MeanScale {
+    Linear,  ///< γ itself (a regression on signed values)
+    Probit,  ///< Φ⁻¹(γ): the winding number's γ ≈ Φ(−d/s), a probability of being inside
+};
+
 class GpisModel {
 public:
     virtual ~GpisModel() = default;
@@ -32,6 +38,8 @@ public:
     virtual double expectedDenseCacheBytes() const { return 0; }
     /// The level u of the surface φ = u in this model's convention: 1/2 for the winding number (1 inside, 0 outside).
     virtual double naturalIso() const { return 0.5; }
+    /// The scale in which γ is about linear across the surface. By default Linear.
+    virtual MeanScale meanScale() const { return MeanScale::Linear; }
 };
 
 }  // namespace gpisvdb

@@ -12,6 +12,7 @@ public:
     using GpisModel::evaluate;
     ValueGradient evaluate(const Vec3d& x) const override { return model_.evaluate(x); }
     double naturalIso() const override { return model_.naturalIso(); }
+    MeanScale meanScale() const override { return model_.meanScale(); }
 
 private:
     const GpisModel& model_;
