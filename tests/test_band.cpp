@@ -615,30 +615,6 @@ TEST_CASE("band: with voxel values the expected area holds and no voxel the mean
     }
 }
 
-TEST_CASE("band: voxel values equal point values where h <= w_mu, in the expected area and voxel by voxel", "[band]") {
-    // The unit-sphere soup at σ_rel 0.5 at h = w_μ: a voxel's share is its centre's value averaged over the cube,
-    // which differs from it by about (h/w_μ)²/24 of μ's curvature across the surface (a few %), and the sums agree to
-    // the linearisation of γ across the cube (here h = 0.49 s: measured −0.66 %, docs/math.md#voxel-kac-rice).
-    const SoupSamples ss = soupSamples(icosphere(3), {0.5});
-    const BarnesHutGpis model(ss.samples, 0.4 * ss.samples.lengthScale);
-    const Resolution res = chooseResolution(model, ss.samples);
-    BandOptions o;
-    o.voxelSize = res.muWidth;
-    const Band point = buildBand(model, ss.samples, o).band;
-    o.values = VoxelValues::Voxel;
-    const Band voxel = buildBand(model, ss.samples, o).band;
-    INFO("point: " << point.size() << " voxels, mass " << point.mass() << "; voxel: " << voxel.size() << " voxels, mass " << voxel.mass());
-    CHECK(std::abs(voxel.mass() / point.mass() - 1) <= 0.01);
-    auto acc = voxel.index->getConstAccessor();
-    double d2 = 0, m2 = 0;
-    for (std::size_t i = 0; i < point.size(); ++i) {
-        const int j = acc.getValue(point.coord[i]);
-        if (j < 0) continue;
-        d2 += std::pow(double(voxel.mu[std::size_t(j)]) - point.mu[i], 2), m2 += std::pow(double(point.mu[i]), 2);
-    }
-    CHECK(std::sqrt(d2 / m2) <= 0.05);
-}
-
 namespace {
 
 /// The unit-sphere soup at σ_rel 0.5 (the bench's coarse-voxel case, docs/benchmarks.md#column-values) and its model.
@@ -683,7 +659,34 @@ std::vector<openvdb::Coord> crossedVoxels(const GpisModel& model, double h, int 
     return out;
 }
 
+/// ‖μ_b − μ_reference‖ / ‖μ_reference‖ over the reference's voxels that b holds too.
+double muDifference(const Band& reference, const Band& b) {
+    auto acc = b.index->getConstAccessor();
+    double d2 = 0, m2 = 0;
+    for (std::size_t i = 0; i < reference.size(); ++i) {
+        const int j = acc.getValue(reference.coord[i]);
+        if (j < 0) continue;
+        d2 += std::pow(double(b.mu[std::size_t(j)]) - reference.mu[i], 2), m2 += std::pow(double(reference.mu[i]), 2);
+    }
+    return std::sqrt(d2 / m2);
+}
+
 }  // namespace
+
+TEST_CASE("band: voxel values equal point values where h <= w_mu, in the expected area and voxel by voxel", "[band]") {
+    // The unit-sphere soup at σ_rel 0.5 at h = w_μ: a voxel's share is its centre's value averaged over the cube,
+    // which differs from it by about (h/w_μ)²/24 of μ's curvature across the surface (a few %), and the sums agree to
+    // the linearisation of γ across the cube (here h = 0.49 s: measured −0.66 %, docs/math.md#voxel-kac-rice).
+    const SphereSoup& sp = sphereSoup();
+    BandOptions o;
+    o.voxelSize = sp.res.muWidth;
+    const Band point = buildBand(sp.model, sp.ss.samples, o).band;
+    o.values = VoxelValues::Voxel;
+    const Band voxel = buildBand(sp.model, sp.ss.samples, o).band;
+    INFO("point: " << point.size() << " voxels, mass " << point.mass() << "; voxel: " << voxel.size() << " voxels, mass " << voxel.mass());
+    CHECK(std::abs(voxel.mass() / point.mass() - 1) <= 0.01);
+    CHECK(muDifference(point, voxel) <= 0.05);
+}
 
 TEST_CASE("band: column values equal point values where h <= w_mu, in the expected area and voxel by voxel", "[band]") {
     // A voxel's column value is the mean of the point values along its three axes: within (h/w_μ)² of the centre's.
@@ -696,14 +699,7 @@ TEST_CASE("band: column values equal point values where h <= w_mu, in the expect
     INFO("point: " << point.size() << " voxels, mass " << point.mass() << "; column: " << column.size() << " voxels, mass "
                    << column.mass());
     CHECK(std::abs(column.mass() / point.mass() - 1) <= 0.005);
-    auto acc = column.index->getConstAccessor();
-    double d2 = 0, m2 = 0;
-    for (std::size_t i = 0; i < point.size(); ++i) {
-        const int j = acc.getValue(point.coord[i]);
-        if (j < 0) continue;
-        d2 += std::pow(double(column.mu[std::size_t(j)]) - point.mu[i], 2), m2 += std::pow(double(point.mu[i]), 2);
-    }
-    CHECK(std::sqrt(d2 / m2) <= 0.05);
+    CHECK(muDifference(point, column) <= 0.05);
 }
 
 TEST_CASE(
