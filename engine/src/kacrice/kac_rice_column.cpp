@@ -1,8 +1,9 @@
 #include "gpisvdb/kacrice/kac_rice_column.h"
 
 #include <algorithm>
-#include <boost/math/special_functions/erf.hpp>
 #include <cmath>
+
+#include "../core/standard_normal.h"
 
 namespace gpisvdb {
 
@@ -12,12 +13,6 @@ namespace {
 /// φ(ψ) below 10⁻⁸: the interpolation falls back to linear).
 constexpr double kProbitMargin = 1e-9;
 
-double normalPdf(double x) { return std::exp(-0.5 * x * x) / std::sqrt(2 * M_PI); }
-double normalCdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
-/// Φ⁻¹(p) for p in (0, 1), by the complementary inverse on each side so that tails keep their digits.
-double probit(double p) {
-    return p < 0.5 ? -std::sqrt(2.0) * boost::math::erfc_inv(2 * p) : std::sqrt(2.0) * boost::math::erfc_inv(2 * (1 - p));
-}
 bool probitable(double gamma) { return gamma > kProbitMargin && gamma < 1 - kProbitMargin; }
 
 /// 6 Gauss–Legendre points per half segment: nodes on (0, 1) and weights summing to 1.
@@ -46,7 +41,7 @@ struct SegmentEnd {
     SegmentEnd(const ValueGradient& g, MeanScale scale) : z(&g) {
         if (scale != MeanScale::Probit || !probitable(g.mean[0])) return;
         probitScale = true;
-        psi = probit(g.mean[0]);
+        psi = normalQuantile(g.mean[0]);
         gradPsi = g.mean.tail<3>() / normalPdf(psi);
     }
 };

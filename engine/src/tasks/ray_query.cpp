@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "../core/standard_normal.h"
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb {
@@ -13,9 +14,6 @@ namespace {
 constexpr double kMaxPoints = 1e8;
 constexpr double kMaxRayPoints = 1e6;                       // one ray's points, all evaluated at once (160 B each)
 constexpr std::size_t kBatchPoints = std::size_t(1) << 18;  // points evaluated at once (160 B each)
-
-double normalPdf(double z) { return std::exp(-0.5 * z * z) * 0.3989422804014327; }
-double normalCdf(double z) { return 0.5 * std::erfc(-z * M_SQRT1_2); }
 
 /// ϕ(z) / Φ(−z), the inverse Mills ratio, without underflow (Φ(−z) underflows past z ≈ 38).
 double millsRatio(double z) {
