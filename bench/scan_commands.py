@@ -7,7 +7,7 @@ Shapes: `sphere`, the unit sphere with sigma 0.01 (bench/sphere_clouds.py; sourc
 points of largest and smallest y).
 
 Usage: python3 bench/scan_commands.py [--gpisvdb build/bin/gpisvdb] [--shape sphere|elephant] [--sizes 10000,100000]
-       [--out bench/results/scan_commands.json]
+       [--commands band,green,geodesic,spectrum] [--out bench/results/scan_commands.json]
 """
 import argparse
 import json
@@ -40,8 +40,10 @@ def main():
     ap.add_argument("--gpisvdb", default="build/bin/gpisvdb")
     ap.add_argument("--shape", default="sphere", choices=sorted(SHAPES))
     ap.add_argument("--sizes", default="10000,100000")
+    ap.add_argument("--commands", default="band,green,geodesic,spectrum", help="which of the four to run")
     ap.add_argument("--out", default="bench/results/scan_commands.json")
     args = ap.parse_args()
+    wanted = args.commands.split(",")
     sizes = args.sizes.split(",")
     paths = [f"bench/results/clouds/{args.shape}_{n}.xyz" for n in sizes]
     missing = [n for n, p in zip(sizes, paths) if not os.path.exists(p)]
@@ -52,6 +54,8 @@ def main():
         report, vdb = os.path.join(tmp, "report.json"), os.path.join(tmp, "out.vdb")
         for n, path in zip(sizes, paths):
             for name, flags in commands(path, args.shape).items():
+                if name not in wanted:
+                    continue
                 cmd = [args.gpisvdb, name, path, "-o", vdb, "--report", report, "--quiet"] + flags
                 print("+", " ".join(cmd), flush=True)
                 start = time.monotonic()
@@ -65,6 +69,7 @@ def main():
                        "voxel_size": r["parameters"]["voxel_size"], "timings_s": r.get("timings_s", {})}
                 if name == "spectrum":
                     row["spectrum"] = r.get("spectrum")
+                    row["voxel_values"] = r["parameters"].get("voxel_values")
                 if name == "geodesic":
                     row["paths"] = r["geodesic"]["paths"]
                 rows.append(row)
