@@ -47,13 +47,21 @@ def gpgp(env, qmc, tmp):
     return result, np.genfromtxt(dump + "_voxels.csv", delimiter=",", names=True)
 
 
+def our_model(smoothing):
+    """Ours in reference mode: the direct sum at GPGP's s, and its level (the field's mean at the dipoles)."""
+    length_scale = gpisvdb.Model.from_file(args.gdp, exact=True).length_scale
+    model = gpisvdb.Model.from_file(args.gdp, exact=True, smoothing=smoothing / length_scale)
+    return model, float(model.evaluate(read_gdp_positions(args.gdp), qmc=1)["mean"].mean())
+
+
 rows = []
+model = None
 with tempfile.TemporaryDirectory() as tmp:
     for name, env, qmc in VARIANTS:
         result, v = gpgp(env, qmc, tmp)
-        model = gpisvdb.Model.from_file(args.gdp, exact=True, smoothing=1.0)
-        model = gpisvdb.Model.from_file(args.gdp, exact=True, smoothing=result["smoothing"] / model.length_scale)
-        iso = float(model.evaluate(read_gdp_positions(args.gdp), qmc=1)["mean"].mean())  # its level: the field's mean at the dipoles
+        if model is None:  # GPGP's s is reg · lfs whatever the variant
+            model, iso, smoothing = *our_model(result["smoothing"]), result["smoothing"]
+        assert result["smoothing"] == smoothing, "GPGP's smoothing changed between variants"
         x = np.stack([v["x"], v["y"], v["z"]], 1)
         t = np.stack([v["T00"], v["T01"], v["T02"], v["T11"], v["T12"], v["T22"]], 1)
         t_norm = np.sqrt(t[:, 0] ** 2 + t[:, 3] ** 2 + t[:, 5] ** 2 + 2 * (t[:, 1] ** 2 + t[:, 2] ** 2 + t[:, 4] ** 2))

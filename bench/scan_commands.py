@@ -44,6 +44,9 @@ def main():
     ap.add_argument("--out", default="bench/results/scan_commands.json")
     args = ap.parse_args()
     wanted = args.commands.split(",")
+    unknown = sorted(set(wanted) - {"band", "green", "geodesic", "spectrum"})
+    if unknown:
+        ap.error(f"--commands: {','.join(unknown)} not in {{band,green,geodesic,spectrum}}")
     sizes = args.sizes.split(",")
     paths = [f"bench/results/clouds/{args.shape}_{n}.xyz" for n in sizes]
     missing = [n for n, p in zip(sizes, paths) if not os.path.exists(p)]

@@ -244,9 +244,11 @@ TEST_CASE(
                 CHECK(r.stats.maxStencilL1 == whole.stats.maxStencilL1);
             }
         }
-        o.batchVoxels = 0;
-        CHECK_THROWS_AS(buildBand(*f.model, f.samples, o), ParameterError);
     }
+    BandOptions o;
+    o.voxelSize = 0.3;
+    o.batchVoxels = 0;
+    CHECK_THROWS_AS(buildBand(*f.model, f.samples, o), ParameterError);
 }
 
 TEST_CASE("band: malloc maps large blocks again after a build, finished or refused (its heap reuse is scoped)", "[band]") {
