@@ -23,6 +23,10 @@ ap.add_argument("--driver", default="build/reference/driver/gpgp_driver")
 ap.add_argument("--gdp", default="tests/data/icosphere_320.gdp")
 ap.add_argument("--out", default="bench/results/reference_mu_trace.json")
 args = ap.parse_args()
+if not os.access(args.driver, os.X_OK):
+    ap.error(f"no GPGP driver at {args.driver}: build it with `python3 bench/reference.py --gpgp PATH --agreement-only`")
+if not os.path.isfile(args.gdp):
+    ap.error(f"no such file: {args.gdp}")
 
 CLIP = 20  # GPGP clips μ at 20 and scales T to a Frobenius norm of at most 20 (StochasticCalculus::max_mu)
 VARIANTS = [("as the checkout", {}, 512), ("exact third derivative", {"GPGP_EXACT_D3": "1"}, 512),
