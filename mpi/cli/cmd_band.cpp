@@ -31,7 +31,7 @@ void addMpiBand(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
             run.out->commit();
             const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             if (run.report) {
-                nlohmann::json report = bandReport(job, a->flags);
+                nlohmann::json report = app::bandReport(job);
                 report["mpi"] = mpiSection;
                 report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"total", total}};
                 report["outputs"] = {a->output};

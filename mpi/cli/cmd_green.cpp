@@ -42,7 +42,7 @@ PcgResult pcgResultOf(const mpi::DistributedGreen& g) {
 /// Rank 0's report: the band's, with the solve, the ranks, the source and the timings.
 nlohmann::json greenReport(const BandJob& job, const Args& a, const mpi::DistributedGreen& g, const PcgResult& solve,
                            const openvdb::Coord& y, const nlohmann::json& mpiSection, double total) {
-    nlohmann::json report = bandReport(job, a.flags);
+    nlohmann::json report = app::bandReport(job);
     report["solver"] = solverReport(solve, a.solver);
     report["solver"]["method"] = std::string("PETSc CG, ") + preconditionerName(g.preconditioner) +
                                  (g.preconditioner == Preconditioner::Multigrid ? " (hypre BoomerAMG)" : "");

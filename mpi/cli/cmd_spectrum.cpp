@@ -22,7 +22,7 @@ openvdb::MetaMap spectrumMetadata(const BandJob& job, const SpectrumArgs& a, con
 /// Rank 0's report: the band's, with the eigenpairs, the ranks and the timings.
 nlohmann::json spectrumReport(const BandJob& job, const SpectrumArgs& a, const mpi::DistributedSpectrum& s,
                               const nlohmann::json& mpiSection, double total) {
-    nlohmann::json report = bandReport(job, a.flags);
+    nlohmann::json report = app::bandReport(job);
     report["spectrum"] = slepcSpectrumReport(s);
     report["mpi"] = mpiSection;
     report["timings_s"] = {{"model", job.secondsModel},

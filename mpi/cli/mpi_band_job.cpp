@@ -46,9 +46,9 @@ void gatherWholeBand(const mpi::Ranks& ranks, MpiBandCommand& c, const BandFlags
     c.job.result.band = mpi::gatherBand(ranks, c.band);
     if (!keepLocal) c.band.local = Band();
     if (ranks.rank == 0) {
-        c.job.warnings = bandWarnings(c.job, flags);
+        c.job.warnings = app::bandWarnings(c.job, app::FrontEnd::CommandLine);
         if (!flags.model.quiet) {
-            if (c.job.model.input.normalsFlipped) std::cerr << "note: " << kNormalsFlippedNote << "\n";
+            if (c.job.model->input.normalsFlipped) std::cerr << "note: " << kNormalsFlippedNote << "\n";
             for (const std::string& w : c.job.warnings) std::cerr << "warning: " << w << "\n";
         }
     }

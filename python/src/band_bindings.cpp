@@ -14,6 +14,7 @@
 
 #include "arrays.h"
 #include "bindings.h"
+#include "gpisvdb/app/band_job.h"
 #include "gpisvdb/app/band_metadata.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/output/temporary_path.h"
@@ -30,11 +31,7 @@ namespace {
 PyBand makeBand(const Model& m, std::optional<double> voxelSize, std::optional<double> resolutionScale, std::optional<double> maxVoxels,
                 const std::string& voxelValues, std::optional<double> iso, double eta, int qmc, double maxAnisotropy,
                 std::optional<double> maxMemory, int threads, py::object progress) {
-    PyBand b;
-    b.model = m.loaded;
-    b.modelOptions = m.options;
-    b.source = m.source;
-    DefaultBandOptions& o = b.requested;
+    DefaultBandOptions o;
     if (voxelSize) {
         o.band.voxelSize = *voxelSize;
         if (!(o.band.voxelSize > 0) || !std::isfinite(o.band.voxelSize))
@@ -56,56 +53,28 @@ PyBand makeBand(const Model& m, std::optional<double> voxelSize, std::optional<d
         if (!(o.maxMemory > 0) || !std::isfinite(o.maxMemory))
             throw ParameterError("max_memory must be a number of bytes > 0, or None for half the RAM");
     }
-    const auto start = Clock::now();
     Work work(threads, std::move(progress));
-    b.built = work([&](const Progress& progress) {
-        const DefaultBandPlan first = planDefaultBand(*m.loaded->model, m.loaded->input.samples, o, progress);
-        const double s = smoothingForPlan(first, *m.loaded);
-        if (!(s > 0)) return buildPlannedBand(*m.loaded->model, m.loaded->input.samples, first, {}, progress);
-        // The band's own model at the analysis scale (docs/band.md#coarse-voxels); the Model keeps its own.
-        b.model = std::make_shared<const LoadedModel>(withSmoothing(*m.loaded, m.options, s, SmoothingSource::VoxelSize));
-        const DefaultBandPlan plan = replanForSmoothing(*b.model->model, b.model->input.samples, o, first, progress);
-        return buildPlannedBand(*b.model->model, b.model->input.samples, plan, {}, progress);
-    });
-    b.seconds = since(start);
+    PyBand b;
+    b.job = work([&](const Progress& progress) { return app::buildBandJob(m.loaded, m.options, o, progress); });
+    b.job.source = m.source;
+    b.job.warnings = app::bandWarnings(b.job, app::FrontEnd::Python);
     return b;
 }
 
+/// The command line's report (app::bandReport) as a dict, with input.source (the input's path or "numpy"),
+/// band.bytes_per_voxel and timings_s.band.
 py::dict bandReport(const PyBand& b) {
-    const Band& band = b.band();
-    const BandStats& st = b.built.result.stats;
-    const InputSamples& in = b.model->input;
-    const openvdb::CoordBBox bb = band.bbox();
-    const ModelOptions& mo = b.modelOptions;
-    py::dict input("source"_a = b.source, "samples"_a = in.samples.size(), "length_scale"_a = in.samples.lengthScale,
-                   "kind"_a = in.isSoup ? "triangle soup" : "oriented point cloud", "skipped_zero_area"_a = in.degenerateSkipped,
-                   "normals_flipped"_a = in.normalsFlipped);
-    py::dict parameters(
-        "sigma_rel"_a = mo.sigmaRel, "sigma"_a = in.sigma, "smoothing_rel"_a = mo.smoothingRel, "smoothing"_a = b.model->smoothing,
-        "noise_smoothing"_a = mo.noiseSmoothing, "smoothing_set_by"_a = smoothingSourceName(b.model->smoothingSource),
-        "model"_a = mo.kind == ModelKind::Regression ? "regression" : "winding", "training_labels"_a = b.model->trainingSize,
-        "iso"_a = b.built.options.iso, "eta_rel"_a = b.built.options.etaRelative, "eta"_a = st.etaAbsolute,
-        "voxel_size"_a = b.built.options.voxelSize, "h_star"_a = b.built.resolution.hStar, "mu_width"_a = b.built.resolution.muWidth,
-        "resolution_scale"_a = b.requested.resolutionScale, "qmc_samples"_a = b.built.options.qmcSamples,
-        "voxel_values"_a = voxelValuesName(b.built.options.values), "max_band_voxels"_a = b.built.maxBandVoxels,
-        "voxel_size_by_budget"_a = b.built.budgeted, "accuracy_voxel_size"_a = b.built.accuracyVoxelSize,
-        "accuracy_voxels"_a = b.built.accuracyVoxels, "voxel_size_note"_a = voxelSizeNote(b.built), "beta"_a = mo.barnesHut.beta,
-        "exact"_a = mo.exact, "max_anisotropy"_a = b.built.options.maxAnisotropy, "max_memory_bytes"_a = b.built.maxMemory);
-    py::dict stages("model"_a = st.modelSeconds, "kac_rice"_a = st.kacRiceSeconds, "search"_a = st.searchSeconds,
-                    "finish"_a = st.finishSeconds);
-    py::dict bandInfo("voxels"_a = band.size(), "voxel_size"_a = band.voxelSize,
-                      "bbox_voxels"_a = py::make_tuple(bb.dim().x(), bb.dim().y(), bb.dim().z()),
-                      "bbox_min"_a = py::make_tuple(bb.min().x(), bb.min().y(), bb.min().z()), "mass"_a = band.mass(),
-                      "max_stencil_l1"_a = st.maxStencilL1, "max_stencil_l1_at_samples"_a = b.built.resolution.maxStencilL1,
-                      "evaluated_voxels"_a = st.evaluated, "bfs_levels"_a = st.levels, "regularised_voxels"_a = st.regularised,
-                      "median_mu_at_samples"_a = st.medianSampleMu, "stage_seconds"_a = stages, "bytes_per_voxel"_a = band.bytesPerVoxel());
-    return py::dict("input"_a = input, "parameters"_a = parameters, "band"_a = bandInfo, "timings_s"_a = py::dict("band"_a = b.seconds));
+    nlohmann::json report = app::bandReport(b.job);
+    report["input"]["source"] = b.job.source;
+    report["band"]["bytes_per_voxel"] = b.band().bytesPerVoxel();
+    report["timings_s"] = {{"band", b.job.secondsBand}};
+    return py::module_::import("json").attr("loads")(report.dump()).cast<py::dict>();
 }
 
 /// File metadata, as the command line writes it (app/band_metadata.h); `mesh` reads 'iso'.
 openvdb::MetaMap bandMetadata(const PyBand& b, const VdbWriteOptions& vdb) {
-    return app::bandMetadata({"python: gpisvdb.band", b.source, ""}, b.modelOptions, *b.model, b.built.options, b.built.resolution,
-                             b.built.budgeted, b.built.result, vdb);
+    return app::bandMetadata({"python: gpisvdb.band", b.job.source, ""}, b.job.modelOptions, *b.job.model, b.job.options, b.job.resolution,
+                             b.job.budgeted, b.job.result, vdb);
 }
 
 /// Writes under a temporary name beside `path` and renames it into place, so that an error or a Ctrl-C leaves
@@ -180,7 +149,7 @@ Tasks: green, geodesic, spectrum, regress, hodge, smoothed_distance, mean_surfac
         .def_property_readonly(
             "voxel_size", [](const PyBand& b) { return b.band().voxelSize; }, "h, world units")
         .def_property_readonly(
-            "iso", [](const PyBand& b) { return b.built.options.iso; }, "the iso-value u the band was built at")
+            "iso", [](const PyBand& b) { return b.job.options.iso; }, "the iso-value u the band was built at")
         .def_property_readonly(
             "mass", [](const PyBand& b) { return b.band().mass(); }, "sum of mu h^3: the expected area of the surface, world units^2")
         .def_property_readonly("report", &bandReport, "input, parameters (relative and absolute), band statistics, timings (a new dict)")

@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "gpisvdb/app/band_job.h"
 #include "gpisvdb/band/default_band.h"
 #include "gpisvdb/model/load_model.h"
 
@@ -28,16 +29,11 @@ struct Model {
 };
 
 struct PyBand {
-    std::shared_ptr<const LoadedModel> model;
-    ModelOptions modelOptions;
-    std::string source;
-    DefaultBandOptions requested;
-    DefaultBand built;
-    double seconds = 0;
+    app::BandJob job;  ///< the band, its model and settings (app/band_job.h), as the command line builds them
 
-    const Band& band() const { return built.result.band; }
+    const Band& band() const { return job.result.band; }
     /// Memory left to a task beside the band (as the command line budgets it).
-    double taskBytes() const { return std::max(1.0, built.maxMemory - double(band().size()) * band().bytesPerVoxel()); }
+    double taskBytes() const { return std::max(1.0, job.maxMemory - double(band().size()) * band().bytesPerVoxel()); }
 };
 
 /// The Model class: construction from arrays or files, evaluate, query_rays, collision (model_bindings.cpp).

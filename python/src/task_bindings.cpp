@@ -240,7 +240,7 @@ py::tuple vertexFaceArrays(const SurfaceMesh& mesh) {
 }
 
 py::tuple meanSurfaceTask(const PyBand& b, std::optional<double> iso, py::object channels, int threads) {
-    const double u = iso ? *iso : b.built.options.iso;
+    const double u = iso ? *iso : b.job.options.iso;
     if (!std::isfinite(u)) throw ParameterError("iso must be finite");
     const std::size_t n = b.band().size();
     // The band's grids (mean, mu, stddev, ...) and the caller's per-voxel arrays, sampled at the vertices.
@@ -291,7 +291,7 @@ py::tuple meanSurfaceTask(const PyBand& b, std::optional<double> iso, py::object
 }
 
 py::list surfacesTask(const PyBand& b, int count, std::uint64_t seed, int first, double beta, int threads, py::object progress) {
-    if (b.model->trainingSize > 0)
+    if (b.job.model->trainingSize > 0)
         throw ParameterError("plausible surfaces are drawn from the winding-number model only (model='winding')");
     SurfaceDrawOptions o;
     o.count = count;
@@ -299,14 +299,15 @@ py::list surfacesTask(const PyBand& b, int count, std::uint64_t seed, int first,
     o.firstDraw = first;
     o.openingRatio = beta;
     // The draws' noise, tree and fields, refused before they allocate, as the other tasks on a band
-    const double need = SurfaceDraws::bytes(b.model->input.samples.size(), o) + 4.0 * double(std::max(count, 0)) * double(b.band().size());
+    const double need =
+        SurfaceDraws::bytes(b.job.model->input.samples.size(), o) + 4.0 * double(std::max(count, 0)) * double(b.band().size());
     if (need > b.taskBytes())
         throw MemoryLimitError("plausible surfaces: " + std::to_string(count) + " draws on " + std::to_string(b.band().size()) +
                                " voxels need about " + numberText(need / 1e6) + " MB beside the band, more than the " +
                                numberText(b.taskBytes() / 1e6) + " MB left by max_memory: draw fewer at once (n, first)");
     Work work(threads, std::move(progress));
     const std::vector<SurfaceMesh> meshes = work([&](const Progress& p) {
-        const SurfaceDraws draws(b.model->input.samples, b.model->smoothing, o);
+        const SurfaceDraws draws(b.job.model->input.samples, b.job.model->smoothing, o);
         const std::vector<std::vector<float>> fields = draws.onBand(b.band(), p);
         std::vector<SurfaceMesh> out;
         for (const auto& field : fields) {

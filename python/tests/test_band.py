@@ -68,6 +68,17 @@ def test_report_matches_the_command_line_report(band, sphere_obj, tmp_path):
     assert r["band"]["mass"] == pytest.approx(cli["band"]["mass"], rel=1e-12)
     for key in ["sigma", "smoothing", "iso", "eta", "voxel_size", "h_star", "mu_width", "qmc_samples"]:
         assert r["parameters"][key] == pytest.approx(cli["parameters"][key], rel=1e-12), key
+    # One report for both (app::bandReport): every key of the command's sections, and Python's few of its own
+    for section in ["input", "parameters", "band", "memory"]:
+        assert set(cli[section]) <= set(r[section]), section
+    assert set(r["input"]) - set(cli["input"]) == {"source"}
+    assert set(r["band"]) - set(cli["band"]) == {"bytes_per_voxel"}
+    assert r["warnings"] == cli["warnings"] == []
+
+
+def test_report_warns_in_keywords(model):
+    r = gpisvdb.band(model, voxel_size=VOXEL, qmc=64).report
+    assert len(r["warnings"]) == 1 and r["warnings"][0].startswith("qmc=64 is below 512")
 
 
 def test_write_vdb_is_read_back_by_pyopenvdb_and_equals_the_command_line_file(band, sphere_obj, tmp_path):

@@ -1,13 +1,7 @@
 #include "band_job.h"
 
-#include <sys/resource.h>
-
 #include <algorithm>
-#include <unistd.h>
-
-#include <chrono>
 #include <cmath>
-#include <fstream>
 #include <iostream>
 #include <map>
 
@@ -15,17 +9,6 @@
 #include "gpisvdb/core/errors.h"
 
 namespace gpisvdb::cli {
-
-namespace {
-
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-/// Documented accuracy limits (docs/band.md#warnings).
-constexpr double kDocumentedBeta = 6;          // docs/model.md
-constexpr int kDocumentedQmc = 512;            // docs/band.md, μ and T
-constexpr double kRegularisedFraction = 0.01;  // more than 1 % of the voxels regularised
-
-}  // namespace
 
 void addBandFlags(CLI::App& cmd, BandFlags& f) {
     addModelFlags(cmd, f.model, true);
@@ -84,33 +67,10 @@ DefaultBandOptions defaultBandOptions(const BandFlags& flags) {
 }
 
 BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& progress, const BandBuilder& build) {
-    const auto start = Clock::now();
-    BandJob job;
-    job.inputPath = data.path;
-    const DefaultBandOptions options = defaultBandOptions(flags);
-    const ModelOptions mo = modelOptions(flags.model);
-    job.model = loadModel(data, mo);
-    job.modelOptions = mo;
-    job.modelOptions.labels.reset();  // the model holds them; the job keeps the settings
-    job.secondsModel = since(start);
-    const auto tBand = Clock::now();
-    const DefaultBandPlan plan = planDefaultBandFor(job.model, mo, options, progress);
-    DefaultBand built = buildPlannedBand(*job.model.model, job.model.input.samples, plan, build, progress);
-    job.secondsBand = since(tBand);
-    job.resolution = built.resolution;
-    job.options = built.options;
-    job.maxMemory = built.maxMemory;
-    job.estimate = built.estimate;
-    job.accuracyVoxelSize = built.accuracyVoxelSize;
-    job.accuracyVoxels = built.accuracyVoxels;
-    job.budgeted = built.budgeted;
-    job.maxBandVoxels = built.maxBandVoxels;
-    job.voxelSizeNote = voxelSizeNote(built);
-    job.result = std::move(built.result);
-    job.bandBytesPerVoxel = job.result.band.bytesPerVoxel();
-    job.warnings = bandWarnings(job, flags);
+    BandJob job = app::runBandJob(data, modelOptions(flags.model), defaultBandOptions(flags), progress, build);
+    job.warnings = app::bandWarnings(job, app::FrontEnd::CommandLine);
     if (!flags.model.quiet) {
-        if (job.model.input.normalsFlipped) std::cerr << "note: " << kNormalsFlippedNote << "\n";
+        if (job.model->input.normalsFlipped) std::cerr << "note: " << kNormalsFlippedNote << "\n";
         if (job.budgeted)
             std::cerr << "note: the band-voxel budget (--max-voxels " << std::llround(job.maxBandVoxels)
                       << (flags.maxBandVoxelsGiven || flags.budgetDefaultWhy.empty() ? "" : ", " + flags.budgetDefaultWhy)
@@ -119,24 +79,6 @@ BandJob runBand(const InputData& data, const BandFlags& flags, const Progress& p
         for (const std::string& w : job.warnings) std::cerr << "warning: " << w << "\n";
     }
     return job;
-}
-
-std::vector<std::string> bandWarnings(const BandJob& job, const BandFlags& flags) {
-    std::vector<std::string> w;
-    // docs/model.md: β = 6 keeps every model number within 1e-3 of its scale on all test inputs; β = 5 missed it.
-    if (flags.model.model == "winding" && !flags.model.exact && flags.model.beta < kDocumentedBeta)
-        w.push_back("the Barnes-Hut accuracy --beta " + numberText(flags.model.beta) + " is below " + numberText(kDocumentedBeta) +
-                    ", the smallest documented to keep the model within 1e-3 of the direct sum: mu and T may err more");
-    // docs/band.md: S = 512 is within 1 % of S = 8192 near the surface.
-    if (job.options.qmcSamples < kDocumentedQmc)
-        w.push_back("--qmc " + std::to_string(job.options.qmcSamples) + " is below " + std::to_string(kDocumentedQmc) +
-                    ", the smallest QMC count documented within 1% of the converged mu and T");
-    const std::size_t n = job.result.band.size(), reg = job.result.stats.regularised;
-    if (n && double(reg) > kRegularisedFraction * double(n))
-        w.push_back(std::to_string(reg) + " of " + std::to_string(n) + " voxels (" + numberText(100.0 * double(reg) / double(n)) +
-                    "%) had T regularised by the anisotropy cap --max-anisotropy " + numberText(job.options.maxAnisotropy) +
-                    ": their diffusion is more isotropic than the model's; a larger cap changes fewer");
-    return w;
 }
 
 BandCommand startBandCommand(const std::string& input, const std::string& output, BandFlags& flags) {
@@ -218,7 +160,7 @@ std::vector<std::pair<std::string, double>> greenSolveBytes(std::size_t voxels, 
 }
 
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags) {
-    return app::bandMetadata({commandLine(), job.inputPath, flags.model.labels}, job.modelOptions, job.model, job.options, job.resolution,
+    return app::bandMetadata({commandLine(), job.source, flags.model.labels}, job.modelOptions, *job.model, job.options, job.resolution,
                              job.budgeted, job.result, flags.vdb);
 }
 
@@ -230,73 +172,6 @@ void addGreenMetadata(openvdb::MetaMap& meta, const Vec3d& source, const openvdb
     meta.insertMeta("solver_float_residual", openvdb::DoubleMetadata(solve.floatResidual));
     meta.insertMeta("solver_refinements", openvdb::Int32Metadata(solve.refinements));
     meta.insertMeta("solver_preconditioner", openvdb::StringMetadata(preconditionerName(solve.preconditioner)));
-}
-
-nlohmann::json bandReport(const BandJob& job, const BandFlags& flags) {
-    const auto& in = job.model.input;
-    const Band& band = job.result.band;
-    const BandStats& st = job.result.stats;
-    struct rusage ru {};
-    getrusage(RUSAGE_SELF, &ru);
-    const openvdb::CoordBBox bb = band.bbox();
-    return {
-        {"input",
-         {{"path", job.inputPath},
-          {"samples", in.samples.size()},
-          {"length_scale", in.samples.lengthScale},
-          {"kind", in.isSoup ? "triangle soup" : "oriented point cloud"},
-          {"skipped_zero_area", in.degenerateSkipped},
-          {"normals_flipped", in.normalsFlipped}}},
-        {"parameters",
-         {{"sigma_rel", flags.model.sigmaRel},
-          {"sigma", in.sigma},
-          {"smoothing_rel", flags.model.smoothingRel},
-          {"smoothing", job.model.smoothing},
-          {"noise_smoothing", flags.model.noiseSmoothing},
-          {"smoothing_set_by", smoothingSourceName(job.model.smoothingSource)},
-          {"model", flags.model.model},
-          {"training_labels", job.model.trainingSize},
-          {"iso", job.options.iso},
-          {"eta_rel", job.options.etaRelative},
-          {"eta", st.etaAbsolute},
-          {"voxel_size", job.options.voxelSize},
-          {"h_star", job.resolution.hStar},
-          {"mu_width", job.resolution.muWidth},
-          {"resolution_scale", flags.resolutionScale},
-          {"voxel_values", voxelValuesName(job.options.values)},
-          {"max_band_voxels", job.maxBandVoxels},
-          {"voxel_size_by_budget", job.budgeted},
-          {"accuracy_voxel_size", job.accuracyVoxelSize},
-          {"accuracy_voxels", job.accuracyVoxels},
-          {"voxel_size_note", job.voxelSizeNote},
-          {"qmc_samples", job.options.qmcSamples},
-          {"beta", flags.model.beta},
-          {"exact", flags.model.exact},
-          {"max_anisotropy", job.options.maxAnisotropy},
-          {"max_memory_bytes", job.maxMemory}}},
-        {"band",
-         {{"voxels", band.size()},
-          {"voxel_size", job.options.voxelSize},
-          {"bbox_voxels", {bb.dim().x(), bb.dim().y(), bb.dim().z()}},
-          {"bbox_min", {bb.min().x(), bb.min().y(), bb.min().z()}},
-          {"mass", band.mass()},
-          {"max_stencil_l1", st.maxStencilL1},
-          {"max_stencil_l1_at_samples", job.resolution.maxStencilL1},
-          {"evaluated_voxels", st.evaluated},
-          {"bfs_levels", st.levels},
-          {"estimated_voxels", job.estimate.voxels},
-          {"estimated_evaluated_voxels", job.estimate.evaluated},
-          {"regularised_voxels", st.regularised},
-          {"median_mu_at_samples", st.medianSampleMu},
-          {"stage_seconds",
-           {{"model", st.modelSeconds}, {"kac_rice", st.kacRiceSeconds}, {"search", st.searchSeconds}, {"finish", st.finishSeconds}}}}},
-        {"warnings", job.warnings},
-        {"memory",
-         {{"peak_rss_bytes", double(ru.ru_maxrss) * 1024.0},
-          {"band_bytes_per_voxel", job.bandBytesPerVoxel},
-          {"estimated_peak_bytes", job.estimate.memory.peakBytes()},
-          {"estimate_baseline_bytes", job.estimate.memory.baselineBytes}}},
-    };
 }
 
 }  // namespace gpisvdb::cli

@@ -7,6 +7,7 @@
 #include <openvdb/openvdb.h>
 
 #include "common.h"
+#include "gpisvdb/app/band_job.h"
 #include "gpisvdb/band/default_band.h"
 #include "gpisvdb/core/memory_estimate.h"
 #include "gpisvdb/output/write_vdb.h"
@@ -32,29 +33,8 @@ struct BandFlags {
 };
 void addBandFlags(CLI::App& cmd, BandFlags& flags);
 
-struct BandJob {
-    std::string inputPath;
-    LoadedModel model;
-    ModelOptions modelOptions;  ///< the model's settings as asked (labels left out: the model holds them)
-    Resolution resolution;
-    BandOptions options;  ///< as used (voxel size resolved)
-    BandResult result;
-    BandEstimate estimate;                             ///< size and memory estimated before the build
-    double accuracyVoxelSize = 0, accuracyVoxels = 0;  ///< DefaultBand's: h before the budget, and its voxels
-    bool budgeted = false;                             ///< the band-voxel budget set the voxel size
-    double maxBandVoxels = 0;                          ///< the budget as used (0: none)
-    std::string voxelSizeNote;                         ///< voxelSizeNote(): h / w_μ, the values, their accuracy
-    double maxMemory = 0;
-    double secondsModel = 0, secondsBand = 0;
-    double bandBytesPerVoxel = 0;  ///< the band's, as built (a spill frees some of its channels later)
-    /// Settings that change the result beyond its documented error (docs/band.md#warnings): the report's
-    /// `warnings`, and one stderr line each unless --quiet.
-    std::vector<std::string> warnings;
-};
-
-/// The warnings for a built band: a Barnes–Hut β below 6, a QMC count below 512, more than 1 % of the voxels
-/// with T regularised by the anisotropy cap.
-std::vector<std::string> bandWarnings(const BandJob& job, const BandFlags& flags);
+/// The band every band command works on (app/band_job.h).
+using BandJob = app::BandJob;
 
 /// The engine's options for a default band from the flags (reads nothing; parses --max-memory).
 DefaultBandOptions defaultBandOptions(const BandFlags& flags);
@@ -115,8 +95,5 @@ void addGreenMetadata(openvdb::MetaMap& meta, const Vec3d& source, const openvdb
 
 /// File metadata: version, command line, every parameter relative and absolute, input, band size and mass.
 openvdb::MetaMap bandMetadata(const BandJob& job, const BandFlags& flags);
-
-/// The report's input, parameters, band, memory and outputs; the caller adds timings and its own sections.
-nlohmann::json bandReport(const BandJob& job, const BandFlags& flags);
 
 }  // namespace gpisvdb::cli

@@ -31,7 +31,7 @@ void addBand(CLI::App& app, Action& action) {
         run.out->commit();
         const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (run.report) {
-            nlohmann::json report = bandReport(job, a->flags);
+            nlohmann::json report = app::bandReport(job);
             report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"total", total}};
             report["outputs"] = {a->output};
             commitReport(*run.report, report);

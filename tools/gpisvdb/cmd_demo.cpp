@@ -156,7 +156,7 @@ void demoSections(const BandJob& job, SigmaRun& run, const Progress& progress) {
     SurfaceDrawOptions drawOptions;
     drawOptions.count = kSectionDraws;
     drawOptions.seed = kSectionSeed;
-    const Samples& samples = job.model.input.samples;
+    const Samples& samples = job.model->input.samples;
     std::vector<float> layerMean;
     for (std::size_t i : layerVoxels) layerMean.push_back(band.mean[i]);
     const auto meanLayer = drawGrid(band, layerVoxels, layerMean);
@@ -166,7 +166,7 @@ void demoSections(const BandJob& job, SigmaRun& run, const Progress& progress) {
                                                  {"draw's grid", double(meanLayer->memUsage())}});  // one at a time, the mean's topology
     const bool stageOnly = resetPeakResident();
     if (!layerVoxels.empty()) {
-        const SurfaceDraws draws(samples, job.model.smoothing, drawOptions);
+        const SurfaceDraws draws(samples, job.model->smoothing, drawOptions);
         const std::vector<std::vector<float>> fields = draws.onBand(band, layerVoxels, progress);
         run.meanSection = sliceContour(*meanLayer, kSection, band.iso);
         for (const auto& f : fields) run.drawSections.push_back(sliceContour(*drawGrid(band, layerVoxels, f), kSection, band.iso));
@@ -214,7 +214,7 @@ SigmaRun runSigma(const InputData& data, double sigmaRel, const DemoArgs& a, con
     flags.maxMemory = a.maxMemory;
     const BandJob job = runBand(data, flags, progress);
     const Band& band = job.result.band;
-    run.sigma = job.model.input.sigma;
+    run.sigma = job.model->input.sigma;
     run.voxels = band.size();
     run.voxelSize = job.options.voxelSize;
     run.mass = band.mass();

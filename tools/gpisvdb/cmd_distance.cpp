@@ -126,7 +126,7 @@ void execute(Args& a, Clock::time_point start) {
     if (meshOut) meshOut->commit();
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (run.report) {
-        nlohmann::json report = bandReport(job, a.flags);
+        nlohmann::json report = app::bandReport(job);
         report["distance"] = distanceSection(a, job.result.band, r, mesh);
         report["memory"]["stages"] = {{"distance", memoryStageReport(memory, peak, stageOnly)}};
         report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"distance", secondsDistance}, {"total", total}};

@@ -117,7 +117,7 @@ void execute(Args& a, Clock::time_point start) {
     run.out->commit();
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (run.report) {
-        nlohmann::json report = bandReport(job, a.flags);
+        nlohmann::json report = app::bandReport(job);
         report["solver"] = solverReport(r.solver, a.solver);
         report["memory"]["stages"] = {{"hodge", memoryStageReport(memory, solvePeak, stageOnly)}};
         report["hodge"] = hodgeSection(a, band, V, r);

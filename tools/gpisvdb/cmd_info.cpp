@@ -27,7 +27,7 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
     const ModelOptions mo = modelOptions(flags.model);
     // The model's own peak (its samples and tree while they are made) is measured: on large inputs it is the run's.
     resetPeakResident();
-    LoadedModel model = loadModel(data, mo);
+    auto model = std::make_shared<const LoadedModel>(loadModel(data, mo));
     const double modelSeconds = since(start), modelPeak = peakResidentBytes();
     const auto tPlan = Clock::now();
     nlohmann::json out = {{"read_seconds", readSeconds},
@@ -43,7 +43,7 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
         return out;
     }
     const double planSeconds = since(tPlan);
-    const BandForecast f = forecastBand(*model.model, model.input.samples, plan, {}, progress);
+    const BandForecast f = forecastBand(*model->model, model->input.samples, plan, {}, progress);
     const double total = readSeconds + modelSeconds + planSeconds + f.buildSeconds + f.writeSeconds;
     const double peak = std::max(modelPeak, f.peakBytes);
     out.update({{"voxel_size", plan.options.voxelSize},
@@ -53,9 +53,9 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
                 {"max_band_voxels", plan.maxBandVoxels},
                 {"mu_width", plan.resolution.muWidth},
                 {"voxel_size_note", voxelSizeNote(plan)},
-                {"smoothing", model.smoothing},
-                {"normals_flipped", model.input.normalsFlipped},
-                {"smoothing_set_by", smoothingSourceName(model.smoothingSource)},
+                {"smoothing", model->smoothing},
+                {"normals_flipped", model->input.normalsFlipped},
+                {"smoothing_set_by", smoothingSourceName(model->smoothingSource)},
                 {"voxels", f.voxels},
                 {"evaluated_voxels", f.evaluated},
                 {"peak_bytes", peak},
@@ -70,12 +70,13 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
     const auto millions = [](double n) { return numberText(std::round(n / 1e3) / 1e3) + " M"; };
     std::cout << "default band (what `gpisvdb " << command << "` with these flags would build; a forecast, docs/band.md#forecast):\n"
               << "  " << voxelSizeNote(plan) << "\n";
-    if (model.input.normalsFlipped) std::cout << "  normals:     " << kNormalsFlippedNote << "\n";
+    if (model->input.normalsFlipped) std::cout << "  normals:     " << kNormalsFlippedNote << "\n";
     if (plan.budgeted)
         std::cout << "  budget:      the band-voxel budget (--max-voxels " << std::llround(plan.maxBandVoxels)
                   << ") set the voxel size; accuracy alone asks " << numberText(plan.accuracyVoxelSize) << " for about "
                   << millions(plan.accuracyVoxels) << " voxels\n";
-    std::cout << "  smoothing:   " << numberText(model.smoothing) << " (set by the " << smoothingSourceName(model.smoothingSource) << ")\n"
+    std::cout << "  smoothing:   " << numberText(model->smoothing) << " (set by the " << smoothingSourceName(model->smoothingSource)
+              << ")\n"
               << "  voxels:      about " << millions(f.voxels) << " (" << millions(f.evaluated) << " evaluated)\n"
               << "  memory:      about " << numberText(peak / 1e9) << " GB at its peak (the model's " << numberText(modelPeak / 1e9)
               << " GB as measured now, the band's " << numberText(f.peakBytes / 1e9) << " GB)\n"

@@ -37,7 +37,7 @@ void execute(SpectrumArgs& a, Clock::time_point start) {
     run.out->commit();
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (run.report) {
-        nlohmann::json report = bandReport(job, a.flags);
+        nlohmann::json report = app::bandReport(job);
         report["spectrum"] = spectrumReport(e);
         report["memory"]["stages"] = {{"spectrum", memoryStage}};
         report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve}, {"total", total}};

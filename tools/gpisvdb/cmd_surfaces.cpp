@@ -101,7 +101,7 @@ void checkFlags(const Args& a) {
 MemoryEstimate estimateSurfaces(const BandJob& job, const Args& a, const openvdb::FloatGrid& meanGrid, MeshFormat format) {
     const Band& band = job.result.band;
     std::vector<std::pair<std::string, double>> parts = {
-        {"draws' noise and tree", SurfaceDraws::bytes(job.model.input.samples.size(), a.draws)},
+        {"draws' noise and tree", SurfaceDraws::bytes(job.model->input.samples.size(), a.draws)},
         {"draws' fields", 4.0 * double(a.draws.count) * double(band.size())},
         {"draw's grid", double(meanGrid.memUsage())}};  // one at a time, the band's topology as the mean's
     for (const auto& part : meanSurfaceBytes(meanGrid, band.iso, 0, format == MeshFormat::Vtp))
@@ -146,7 +146,7 @@ DrawnMeshes writeDrawnMeshes(const Args& a, const Band& band, const std::vector<
 /// The report: the band's, with the stage's memory, the draws and their meshes, the timings and the outputs.
 nlohmann::json surfacesReport(const BandJob& job, const Args& a, nlohmann::json stages, DrawnMeshes& d, double secondsDraws,
                               double secondsMeshes, double total) {
-    nlohmann::json report = bandReport(job, a.flags);
+    nlohmann::json report = app::bandReport(job);
     report["memory"]["stages"] = std::move(stages);
     report["surfaces"] = {{"count", a.draws.count},
                           {"seed", a.draws.seed},
@@ -179,7 +179,7 @@ void execute(Args& a, Clock::time_point start) {
 
     // === The draws' fields on the band, then each one's level set u
     const auto tDraws = Clock::now();
-    const SurfaceDraws draws(job.model.input.samples, job.model.smoothing, a.draws);
+    const SurfaceDraws draws(job.model->input.samples, job.model->smoothing, a.draws);
     const std::vector<std::vector<float>> fields = draws.onBand(band, progress);
     const double secondsDraws = std::chrono::duration<double>(Clock::now() - tDraws).count();
     const auto tMeshes = Clock::now();

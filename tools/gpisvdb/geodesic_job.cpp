@@ -100,7 +100,7 @@ void finishGeodesic(const BandJob& job, const GeodesicArgs& args, GeodesicReques
     if (request.pathsOut) request.pathsOut->commit();
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (report) {
-        nlohmann::json json = bandReport(job, args.flags);
+        nlohmann::json json = app::bandReport(job);
         nlohmann::json paths = nlohmann::json::array();
         for (std::size_t k = 0; k < g.paths.size(); ++k) {
             const GeodesicPath& p = g.paths[k];

@@ -96,7 +96,7 @@ void finishRegress(const BandJob& job, const RegressArgs& args, const Regression
     out.commit();
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (report) {
-        nlohmann::json json = bandReport(job, args.flags);
+        nlohmann::json json = app::bandReport(job);
         json["spectrum"] = spectrumReport(e);
         json["memory"]["stages"] = {{"spectrum", spectrumStage},
                                     {"regression", memoryStageReport(regressionMemory, regressionPeak, regressionOnly)}};

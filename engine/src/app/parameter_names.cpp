@@ -83,15 +83,20 @@ const std::vector<ParameterName>& parameterNames() {
     return kNames;
 }
 
+std::string_view parameterName(std::string_view field, FrontEnd frontEnd) {
+    const auto& names = parameterNames();
+    const auto row = std::find_if(names.begin(), names.end(), [&](const ParameterName& n) { return n.field == field; });
+    if (row == names.end()) return field;
+    const std::string_view name = frontEnd == FrontEnd::CommandLine ? row->flag : row->keyword;
+    return name.empty() ? field : name;
+}
+
 std::string frontEndMessage(const Error& error, FrontEnd frontEnd) {
     std::string text = error.what();
     std::vector<std::string_view> appended;
     for (const std::string& field : error.parameters()) {
-        const auto& names = parameterNames();
-        const auto row = std::find_if(names.begin(), names.end(), [&](const ParameterName& n) { return n.field == field; });
-        if (row == names.end()) continue;
-        const std::string_view name = frontEnd == FrontEnd::CommandLine ? row->flag : row->keyword;
-        if (name.empty()) continue;
+        const std::string_view name = parameterName(field, frontEnd);
+        if (name == field) continue;
         bool written = false;
         for (std::size_t at = text.find(field); at != std::string::npos; at = text.find(field, at + name.size())) {
             text.replace(at, field.size(), name);

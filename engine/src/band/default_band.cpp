@@ -182,14 +182,14 @@ DefaultBandPlan replanForSmoothing(const GpisModel& model, const Samples& sample
     return second;
 }
 
-DefaultBandPlan planDefaultBandFor(LoadedModel& model, const ModelOptions& modelOptions, const DefaultBandOptions& options,
-                                   const Progress& progress) {
-    const DefaultBandPlan first = planDefaultBand(*model.model, model.input.samples, options, progress);
-    const double s = smoothingForPlan(first, model);
+DefaultBandPlan planDefaultBandFor(std::shared_ptr<const LoadedModel>& model, const ModelOptions& modelOptions,
+                                   const DefaultBandOptions& options, const Progress& progress) {
+    const DefaultBandPlan first = planDefaultBand(*model->model, model->input.samples, options, progress);
+    const double s = smoothingForPlan(first, *model);
     if (!(s > 0)) return first;
     // === The analysis scale: s follows h, and the band is planned again at the same h (docs/band.md#coarse-voxels)
-    model = withSmoothing(model, modelOptions, s, SmoothingSource::VoxelSize);
-    return replanForSmoothing(*model.model, model.input.samples, options, first, progress);
+    model = std::make_shared<const LoadedModel>(withSmoothing(*model, modelOptions, s, SmoothingSource::VoxelSize));
+    return replanForSmoothing(*model->model, model->input.samples, options, first, progress);
 }
 
 namespace {

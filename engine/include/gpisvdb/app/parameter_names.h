@@ -22,6 +22,10 @@ const std::vector<ParameterName>& parameterNames();
 
 enum class FrontEnd { CommandLine, Python };
 
+/// The flag (CommandLine) or keyword (Python) that sets `field` ("BarnesHutOptions::beta"); the field's own name where
+/// no front end sets it or the table does not list it.
+std::string_view parameterName(std::string_view field, FrontEnd frontEnd);
+
 /// error.what() in the front end's names: every field it names becomes the flag (CommandLine) or the keyword
 /// (Python); a field error.parameters() lists that the text does not write is appended in parentheses.
 std::string frontEndMessage(const Error& error, FrontEnd frontEnd);

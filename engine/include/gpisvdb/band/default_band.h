@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -143,10 +144,10 @@ DefaultBandPlan replanForSmoothing(const GpisModel& model, const Samples& sample
                                    const DefaultBandPlan& first, const Progress& progress = {});
 
 /// planDefaultBand for a loaded model; where the plan takes voxel values at an h with s < kVoxelSmoothing·h (winding
-/// model), `model` is rebuilt from its samples at s = kVoxelSmoothing·h (withSmoothing) and the band planned again at
-/// that h, its budget and accuracy fields kept from the first plan.
-DefaultBandPlan planDefaultBandFor(LoadedModel& model, const ModelOptions& modelOptions, const DefaultBandOptions& options,
-                                   const Progress& progress = {});
+/// model), `model` is replaced by one rebuilt from its samples at s = kVoxelSmoothing·h (withSmoothing; the one given
+/// is left as it was) and the band planned again at that h, its budget and accuracy fields kept from the first plan.
+DefaultBandPlan planDefaultBandFor(std::shared_ptr<const LoadedModel>& model, const ModelOptions& modelOptions,
+                                   const DefaultBandOptions& options, const Progress& progress = {});
 
 /// The band of a plan (planDefaultBand): `build` (empty: buildBand) with the plan's options.
 DefaultBand buildPlannedBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan, const BandBuilder& build = {},
