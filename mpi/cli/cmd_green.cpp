@@ -10,23 +10,11 @@ namespace gpisvdb::cli {
 
 namespace {
 
-struct Args {
-    std::string input, output;
-    std::vector<double> source;
-    BandFlags flags;
-    PcgOptions solver;
-};
+using Args = GreenArgs;
 
 /// The flags of `gpisvdb-mpi green`.
 void addFlags(CLI::App& cmd, Args& a) {
-    cmd.add_option("INPUT", a.input, kInputHelp)->required();
-    cmd.add_option("--source", a.source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
-        ->required()
-        ->delimiter(',')
-        ->expected(3);
-    cmd.add_option("-o,--output", a.output, "output .vdb (band grids and 'green'; written by rank 0)")->required();
-    addBandFlags(cmd, a.flags);
-    addSolverFlags(cmd, a.solver, SolverFlags::Distributed);
+    addGreenArgs(cmd, a, "output .vdb (band grids and 'green'; written by rank 0)", SolverFlags::Distributed);
 }
 
 /// The distributed solve in the terms of the PCG's result (the report's and the convergence check's).
@@ -56,15 +44,14 @@ nlohmann::json greenReport(const BandJob& job, const Args& a, const mpi::Distrib
 
 /// `gpisvdb-mpi green` once its flags are parsed, on every rank.
 void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
+    Vec3d source;
     mpi::together(ranks, [&] {
-        if (a.source.size() != 3 || !Vec3d(a.source[0], a.source[1], a.source[2]).allFinite())
-            throw ParameterError("--source needs three finite numbers X,Y,Z");
+        source = a.sourcePoint();
         checkPcgOptions(a.solver);
     });
     MpiBandCommand run = startMpiBandCommand(ranks, a.input, a.output, a.flags);
     const BandJob& job = run.job;
-    const mpi::DistributedGreen g =
-        greensFunctionPetsc(ranks, run.band, Vec3d(a.source[0], a.source[1], a.source[2]), a.solver, run.progress);
+    const mpi::DistributedGreen g = greensFunctionPetsc(ranks, run.band, source, a.solver, run.progress);
     const PcgResult solve = pcgResultOf(g);
     mpi::together(ranks, [&] { requireConverged(solve, a.solver); });
     const std::vector<float> values = mpi::gatherChannel(ranks, g.local);
@@ -76,7 +63,7 @@ void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
         const Band& band = job.result.band;
         openvdb::MetaMap meta = bandMetadata(job, a.flags);
         const openvdb::Coord y = band.coord[g.sourceIndex];
-        addGreenMetadata(meta, Vec3d(a.source[0], a.source[1], a.source[2]), y, solve);
+        addGreenMetadata(meta, source, y, solve);
         writeBandVdb(band, run.out->tempPath(), meta, {{"green", &values}}, {}, a.flags.vdb);
         run.out->commit();
         const double total = std::chrono::duration<double>(Clock::now() - start).count();
@@ -91,15 +78,14 @@ void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
 }  // namespace
 
 void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    auto* cmd =
-        app.add_subcommand("green", "Green's function of the GPIS Laplacian (as gpisvdb green), solved across the MPI ranks by PETSc");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
-    cmd->footer(
-        "Solves L f = M delta_y with PETSc's CG; the solver's settings can be overridden through PETSC_OPTIONS\n"
-        "(prefix green_, e.g. PETSC_OPTIONS='-green_pc_hypre_boomeramg_strong_threshold 0.6').\n"
-        "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --threads 1");
-    onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) { execute(ranks, *a, start); });
+    addCommand<Args>(
+        app, action, "green",
+        {"Green's function of the GPIS Laplacian (as gpisvdb green), solved across the MPI ranks by PETSc",
+         "Solves L f = M delta_y with PETSc's CG; the solver's settings can be overridden through PETSC_OPTIONS\n"
+         "(prefix green_, e.g. PETSC_OPTIONS='-green_pc_hypre_boomeramg_strong_threshold 0.6').\n"
+         "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --threads 1"},
+        addFlags, [](Args& a) -> int& { return a.flags.model.threads; },
+        [&ranks](Args& a, Clock::time_point start) { execute(ranks, a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -70,15 +70,17 @@ void execute(const mpi::Ranks& ranks, SpectrumArgs& a, Clock::time_point start) 
 }  // namespace
 
 void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    auto* cmd = app.add_subcommand("spectrum",
-                                   "lowest eigenpairs of the GPIS Laplacian (as gpisvdb spectrum), solved across the MPI ranks by SLEPc");
-    auto a = std::make_shared<SpectrumArgs>();
-    addSpectrumFlags(*cmd, *a, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)");
-    cmd->footer(
-        "lanczos: SLEPc Krylov-Schur on L^-1 M, L factored by MUMPS (auto up to 1e6 voxels); lobpcg: SLEPc LOBPCG\n"
-        "preconditioned by hypre BoomerAMG. PETSC_OPTIONS overrides the solver's settings (prefix spectrum_).\n"
-        "Example:\n  mpirun -n 4 gpisvdb-mpi spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --threads 1");
-    onRun(*cmd, action, a->flags.model.threads, [&ranks, a](Clock::time_point start) { execute(ranks, *a, start); });
+    addCommand<SpectrumArgs>(
+        app, action, "spectrum",
+        {"lowest eigenpairs of the GPIS Laplacian (as gpisvdb spectrum), solved across the MPI ranks by SLEPc",
+         "lanczos: SLEPc Krylov-Schur on L^-1 M, L factored by MUMPS (auto up to 1e6 voxels); lobpcg: SLEPc LOBPCG\n"
+         "preconditioned by hypre BoomerAMG. PETSC_OPTIONS overrides the solver's settings (prefix spectrum_).\n"
+         "Example:\n  mpirun -n 4 gpisvdb-mpi spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --threads 1"},
+        [](CLI::App& cmd, SpectrumArgs& a) {
+            addSpectrumFlags(cmd, a, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)");
+        },
+        [](SpectrumArgs& a) -> int& { return a.flags.model.threads; },
+        [&ranks](SpectrumArgs& a, Clock::time_point start) { execute(ranks, a, start); });
 }
 
 }  // namespace gpisvdb::cli

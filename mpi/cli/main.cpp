@@ -31,16 +31,8 @@ int run(int argc, char** argv, const gpisvdb::mpi::Ranks& ranks) {
     cli::addMpiSpectrum(app, action, ranks);
     cli::addMpiGeodesic(app, action, ranks);
     cli::addMpiRegress(app, action, ranks);
-    for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
     const bool speaks = ranks.rank == 0;
-    try {
-        app.parse(argc, argv);  // every rank parses the same arguments alike
-    } catch (const CLI::Success& e) {
-        return speaks ? app.exit(e) : 0;
-    } catch (const CLI::ParseError& e) {
-        if (speaks) app.exit(e);
-        return 2;
-    }
+    if (const auto code = cli::parseCommandLine(app, argc, argv, speaks)) return *code;  // every rank parses alike
     const auto fail = [&](const std::string& message) {
         cli::removeCommittedOutputs();
         if (mpi::errorsAgreed()) {

@@ -56,6 +56,29 @@ void addBandFlags(CLI::App& cmd, BandFlags& f) {
     cmd.add_flag("--nanovdb", f.vdb.nanoVdb, "write the grids as NanoVDB (also chosen by an output ending in .nvdb)");
 }
 
+void addBandArgs(CLI::App& cmd, BandArgs& a, const std::string& outputHelp) {
+    cmd.add_option("INPUT", a.input, kInputHelp)->required();
+    cmd.add_option("-o,--output", a.output, outputHelp)->required();
+    addBandFlags(cmd, a.flags);
+}
+
+void addGreenArgs(CLI::App& cmd, GreenArgs& a, const std::string& outputHelp, SolverFlags solverFlags) {
+    cmd.add_option("INPUT", a.input, kInputHelp)->required();
+    cmd.add_option("--source", a.source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
+        ->required()
+        ->delimiter(',')
+        ->expected(3);
+    cmd.add_option("-o,--output", a.output, outputHelp)->required();
+    addBandFlags(cmd, a.flags);
+    addSolverFlags(cmd, a.solver, solverFlags);
+}
+
+Vec3d GreenArgs::sourcePoint() const {
+    if (source.size() != 3 || !Vec3d(source[0], source[1], source[2]).allFinite())
+        throw ParameterError("--source needs three finite numbers X,Y,Z");
+    return Vec3d(source[0], source[1], source[2]);
+}
+
 DefaultBandOptions defaultBandOptions(const BandFlags& flags) {
     DefaultBandOptions options;
     options.band = flags.band;

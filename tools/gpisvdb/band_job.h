@@ -33,6 +33,31 @@ struct BandFlags {
 };
 void addBandFlags(CLI::App& cmd, BandFlags& flags);
 
+/// What `band` and `green` (gpisvdb and gpisvdb-mpi alike) take: an input, an output and the band's flags.
+struct BandArgs {
+    std::string input, output;
+    BandFlags flags;
+};
+/// INPUT, -o,--output (described by `outputHelp`) and the band's flags.
+void addBandArgs(CLI::App& cmd, BandArgs& a, const std::string& outputHelp);
+
+/// Which flags addSolverFlags registers.
+enum class SolverFlags {
+    ToleranceOnly,   ///< --tolerance and --max-iterations (the operator picks its own preconditioner)
+    Preconditioner,  ///< also --preconditioner auto|multigrid|jacobi|ic
+    Distributed,     ///< also --preconditioner auto|multigrid|jacobi (gpisvdb-mpi: PETSc double, no incomplete Cholesky)
+};
+
+/// What `green` adds: the source point (--source X,Y,Z, required) and the PCG's settings.
+struct GreenArgs : BandArgs {
+    std::vector<double> source;
+    PcgOptions solver;
+    /// The source as a point; throws a ParameterError unless --source gave three finite numbers.
+    Vec3d sourcePoint() const;
+};
+/// INPUT, --source, -o,--output (`outputHelp`), the band's flags and the solver's (`solverFlags`).
+void addGreenArgs(CLI::App& cmd, GreenArgs& a, const std::string& outputHelp, SolverFlags solverFlags);
+
 /// The band every band command works on (app/band_job.h).
 using BandJob = app::BandJob;
 
@@ -62,12 +87,6 @@ enum class Spill {
     Never,
 };
 
-/// Which flags addSolverFlags registers.
-enum class SolverFlags {
-    ToleranceOnly,   ///< --tolerance and --max-iterations (the operator picks its own preconditioner)
-    Preconditioner,  ///< also --preconditioner auto|multigrid|jacobi|ic
-    Distributed,     ///< also --preconditioner auto|multigrid|jacobi (gpisvdb-mpi: PETSc double, no incomplete Cholesky)
-};
 /// --tolerance, --max-iterations and (per `which`) --preconditioner, into `options`.
 void addSolverFlags(CLI::App& cmd, PcgOptions& options, SolverFlags which);
 

@@ -422,7 +422,6 @@ void execute(DemoArgs& a) {
     const auto start = Clock::now();
     checkFlags(a);
     const double limit = memoryLimit(StageFlags{a.maxMemory, ""});
-    const auto threads = limitThreads(a.threads);
     AtomicDirectory out(a.dir);
     const fs::path tmp(out.tempPath());
     const Progress progress = makeProgress(a.quiet);
@@ -462,15 +461,13 @@ void execute(DemoArgs& a) {
 }  // namespace
 
 void addDemo(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand(
-        "demo", "the built-in example: a torus with a gap at three noise levels (band, Green, geodesic, eigenfunctions, pictures)");
-    auto a = std::make_shared<DemoArgs>();
-    addFlags(*cmd, *a);
-    cmd->footer(
-        "Writes DIR/summary.md, DIR/report.json, DIR/input.png, DIR/comparison.png and, per sigma,\n"
-        "DIR/sigma-<s>/{gpis.vdb, surface.vtp, path.vtp}. About a minute on 2 cores.\n"
-        "Examples:\n  gpisvdb demo -o demo-output\n  gpisvdb demo -o quick --sigma 1 --sigma 3 --voxel-size 0.08");
-    cmd->callback([&action, a] { action = [a] { execute(*a); }; });
+    addCommand<DemoArgs>(
+        app, action, "demo",
+        {"the built-in example: a torus with a gap at three noise levels (band, Green, geodesic, eigenfunctions, pictures)",
+         "Writes DIR/summary.md, DIR/report.json, DIR/input.png, DIR/comparison.png and, per sigma,\n"
+         "DIR/sigma-<s>/{gpis.vdb, surface.vtp, path.vtp}. About a minute on 2 cores.\n"
+         "Examples:\n  gpisvdb demo -o demo-output\n  gpisvdb demo -o quick --sigma 1 --sigma 3 --voxel-size 0.08"},
+        addFlags, [](DemoArgs& a) -> int& { return a.threads; }, [](DemoArgs& a, Clock::time_point) { execute(a); });
 }
 
 }  // namespace gpisvdb::cli

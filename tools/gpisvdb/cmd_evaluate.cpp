@@ -106,16 +106,15 @@ void execute(Args& a) {
 }  // namespace
 
 void addEvaluate(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("evaluate", "mean and covariance of (phi, grad phi) at query points, as CSV");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
-    cmd->footer(
-        "Columns: x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33 (c: covariance of\n"
-        "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row), then the Kac-Rice surface\n"
-        "density mu and tangent tensor T: mu,Txx,Txy,Txz,Tyy,Tyz,Tzz (world units^-1), then p_inside,\n"
-        "the probability P(phi > u) that the point lies inside the surface.\n"
-        "Example:\n  gpisvdb evaluate bunny.obj --at points.xyz -o values.csv --sigma 0.25");
-    onRun(*cmd, action, a->flags.threads, [a](Clock::time_point) { execute(*a); });
+    addCommand<Args>(
+        app, action, "evaluate",
+        {"mean and covariance of (phi, grad phi) at query points, as CSV",
+         "Columns: x,y,z,gamma,gx,gy,gz,c00,c01,c02,c03,c11,c12,c13,c22,c23,c33 (c: covariance of\n"
+         "(phi, d/dx phi, d/dy phi, d/dz phi), upper triangle row by row), then the Kac-Rice surface\n"
+         "density mu and tangent tensor T: mu,Txx,Txy,Txz,Tyy,Tyz,Tzz (world units^-1), then p_inside,\n"
+         "the probability P(phi > u) that the point lies inside the surface.\n"
+         "Example:\n  gpisvdb evaluate bunny.obj --at points.xyz -o values.csv --sigma 0.25"},
+        addFlags, [](Args& a) -> int& { return a.flags.threads; }, [](Args& a, Clock::time_point) { execute(a); });
 }
 
 }  // namespace gpisvdb::cli

@@ -8,19 +8,19 @@
 namespace gpisvdb::cli {
 
 void addGeodesic(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("geodesic", "Geodesic distance on the GPIS from source points, and shortest paths, as a .vdb");
-    auto a = std::make_shared<GeodesicArgs>();
-    addGeodesicFlags(*cmd, *a);
-    cmd->footer(
-        "Solves sqrt(grad U . T grad U) = 1 with U = 0 at the sources: U is about the surface distance over\n"
-        "sqrt(mu), so it grows faster where the surface is uncertain. Voxels not reached are inactive in\n"
-        "'geodesic' (background: the largest distance reached) and counted in the report.\n"
-        "Example:\n  gpisvdb geodesic bunny.obj --source 0.5,6,1 --target -2,9,0 -o geo.vdb --paths path.vtp --sigma 1");
-    onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) {
-        GeodesicRequest request = geodesicRequest(*a);
-        BandCommand run = startBandCommand(a->input, a->output, a->flags);
-        finishGeodesic(run.job, *a, request, *run.out, run.report.get(), run.progress, start);
-    });
+    addCommand<GeodesicArgs>(
+        app, action, "geodesic",
+        {"Geodesic distance on the GPIS from source points, and shortest paths, as a .vdb",
+         "Solves sqrt(grad U . T grad U) = 1 with U = 0 at the sources: U is about the surface distance over\n"
+         "sqrt(mu), so it grows faster where the surface is uncertain. Voxels not reached are inactive in\n"
+         "'geodesic' (background: the largest distance reached) and counted in the report.\n"
+         "Example:\n  gpisvdb geodesic bunny.obj --source 0.5,6,1 --target -2,9,0 -o geo.vdb --paths path.vtp --sigma 1"},
+        addGeodesicFlags, [](GeodesicArgs& a) -> int& { return a.flags.model.threads; },
+        [](GeodesicArgs& a, Clock::time_point start) {
+            GeodesicRequest request = geodesicRequest(a);
+            BandCommand run = startBandCommand(a.input, a.output, a.flags);
+            finishGeodesic(run.job, a, request, *run.out, run.report.get(), run.progress, start);
+        });
 }
 
 }  // namespace gpisvdb::cli

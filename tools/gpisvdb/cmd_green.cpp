@@ -12,24 +12,13 @@ namespace gpisvdb::cli {
 
 namespace {
 
-struct Args {
-    std::string input, output;
-    std::vector<double> source;
-    BandFlags flags;
-    PcgOptions solver;
+struct Args : GreenArgs {
     Spill spill = Spill::Automatic;
 };
 
 /// The flags of `gpisvdb green`.
 void addFlags(CLI::App& cmd, Args& a) {
-    cmd.add_option("INPUT", a.input, kInputHelp)->required();
-    cmd.add_option("--source", a.source, "source point X,Y,Z (world units); snapped to the nearest band voxel")
-        ->required()
-        ->delimiter(',')
-        ->expected(3);
-    cmd.add_option("-o,--output", a.output, "output .vdb (band grids and 'green')")->required();
-    addBandFlags(cmd, a.flags);
-    addSolverFlags(cmd, a.solver, SolverFlags::Preconditioner);
+    addGreenArgs(cmd, a, "output .vdb (band grids and 'green')", SolverFlags::Preconditioner);
     cmd.add_option("--spill", a.spill,
                    "auto (default), always or never: write the band's grids to a side file before the solve and free "
                    "their channels (44 B per voxel); auto does it when the solve would not fit --max-memory otherwise")
@@ -77,8 +66,7 @@ nlohmann::json greenReport(const BandJob& job, const Args& a, const GreenResult&
 
 /// `gpisvdb green` once its flags are parsed.
 void execute(Args& a, Clock::time_point start) {
-    if (a.source.size() != 3 || !Vec3d(a.source[0], a.source[1], a.source[2]).allFinite())
-        throw ParameterError("--source needs three finite numbers X,Y,Z");
+    const Vec3d source = a.sourcePoint();
     checkPcgOptions(a.solver);
     BandCommand run = startBandCommand(a.input, a.output, a.flags);
     const BandJob& job = run.job;
@@ -94,13 +82,13 @@ void execute(Args& a, Clock::time_point start) {
     const LaplacianOperator L(band);
     const double secondsOps = std::chrono::duration<double>(Clock::now() - tOps).count();
     const auto tSolve = Clock::now();
-    const GreenResult g = greensFunction(band, L, Vec3d(a.source[0], a.source[1], a.source[2]), a.solver, run.progress);
+    const GreenResult g = greensFunction(band, L, source, a.solver, run.progress);
     const double secondsSolve = std::chrono::duration<double>(Clock::now() - tSolve).count();
     const double solvePeak = peakResidentBytes();
     requireConverged(g.solver, a.solver);
     openvdb::MetaMap meta = bandMetadata(job, a.flags);
     const openvdb::Coord y = band.coord[g.sourceIndex];
-    addGreenMetadata(meta, Vec3d(a.source[0], a.source[1], a.source[2]), y, g.solver);
+    addGreenMetadata(meta, source, y, g.solver);
     if (spilled) writeBandVdb(band, *spilled, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a.flags.vdb);
     else writeBandVdb(band, run.out->tempPath(), meta, {{"green", &g.values}}, {}, a.flags.vdb);
     run.out->commit();
@@ -120,13 +108,12 @@ void execute(Args& a, Clock::time_point start) {
 }  // namespace
 
 void addGreen(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("green", "Green's function of the GPIS Laplacian from a source point, as a .vdb");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
-    cmd->footer(
-        "Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
-        "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json");
-    onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
+    addCommand<Args>(
+        app, action, "green",
+        {"Green's function of the GPIS Laplacian from a source point, as a .vdb",
+         "Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
+         "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json"},
+        addFlags, [](Args& a) -> int& { return a.flags.model.threads; }, [](Args& a, Clock::time_point start) { execute(a, start); });
 }
 
 }  // namespace gpisvdb::cli

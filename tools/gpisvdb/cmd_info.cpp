@@ -166,7 +166,6 @@ nlohmann::json describeSamples(const InputData& data, const ModelFlags& flags, d
 void execute(Args& a) {
     const ModelFlags& flags = a.flags.model;
     if (!(flags.smoothingRel > 0)) throw ParameterError("--smoothing must be > 0");
-    const auto threads = limitThreads(flags.threads);
     const double limit = memoryLimit({a.flags.maxMemory, a.flags.report});
     const auto start = Clock::now();
     const InputData data = readInput(a.input);
@@ -181,15 +180,13 @@ void execute(Args& a) {
 }  // namespace
 
 void addInfo(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("info",
-                                   "describe an input (samples, length scale, bounding box, what was skipped) "
-                                   "and forecast the default band: voxel size, voxels, memory, time");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
-    cmd->footer(
-        "The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
-        "Example:\n  gpisvdb info bunny.obj --sigma 0.25");
-    cmd->callback([&action, a] { action = [a] { execute(*a); }; });
+    addCommand<Args>(
+        app, action, "info",
+        {"describe an input (samples, length scale, bounding box, what was skipped) "
+         "and forecast the default band: voxel size, voxels, memory, time",
+         "The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
+         "Example:\n  gpisvdb info bunny.obj --sigma 0.25"},
+        addFlags, [](Args& a) -> int& { return a.flags.model.threads; }, [](Args& a, Clock::time_point) { execute(a); });
 }
 
 }  // namespace gpisvdb::cli

@@ -82,11 +82,11 @@ void execute(Args& a) {
 }  // namespace
 
 void addMesh(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("mesh", "mean surface of a band file with a grid sampled at its vertices (.ply/.vtp)");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
-    cmd->footer("Example:\n  gpisvdb mesh green.vdb --grid green --grid mu -o green.ply");
-    onRun(*cmd, action, a->threads, [a](Clock::time_point) { execute(*a); });
+    addCommand<Args>(
+        app, action, "mesh",
+        {"mean surface of a band file with a grid sampled at its vertices (.ply/.vtp)",
+         "Example:\n  gpisvdb mesh green.vdb --grid green --grid mu -o green.ply"},
+        addFlags, [](Args& a) -> int& { return a.threads; }, [](Args& a, Clock::time_point) { execute(a); });
 }
 
 }  // namespace gpisvdb::cli

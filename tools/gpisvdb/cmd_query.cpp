@@ -178,18 +178,16 @@ void execute(Args& a) {
 }  // namespace
 
 void addQuery(CLI::App& app, Action& action) {
-    auto* cmd =
-        app.add_subcommand("query", "where rays first hit the uncertain surface, points' and a mesh's probability of being inside, as CSV");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
-    cmd->footer(
-        "Columns: --rays: ox,oy,oz,dx,dy,dz,length,p_inside_origin,p_hit,hit_distance,hit_distance_std\n"
-        "(a hit: the ray first enters phi > u within its length; the distance's mean and std given a hit;\n"
-        "Rice's rate of entries, docs/uncertainty.md#ray-queries); --points: x,y,z,p_inside,gamma,stddev;\n"
-        "--mesh: points,p_collision,standard_error,largest_point_p_inside (Monte Carlo over --draws draws;\n"
-        "the winding-number model only).\n"
-        "Example:\n  gpisvdb query bunny.obj --rays rays.csv -o hits.csv --sigma 1");
-    onRun(*cmd, action, a->flags.threads, [a](Clock::time_point) { execute(*a); });
+    addCommand<Args>(
+        app, action, "query",
+        {"where rays first hit the uncertain surface, points' and a mesh's probability of being inside, as CSV",
+         "Columns: --rays: ox,oy,oz,dx,dy,dz,length,p_inside_origin,p_hit,hit_distance,hit_distance_std\n"
+         "(a hit: the ray first enters phi > u within its length; the distance's mean and std given a hit;\n"
+         "Rice's rate of entries, docs/uncertainty.md#ray-queries); --points: x,y,z,p_inside,gamma,stddev;\n"
+         "--mesh: points,p_collision,standard_error,largest_point_p_inside (Monte Carlo over --draws draws;\n"
+         "the winding-number model only).\n"
+         "Example:\n  gpisvdb query bunny.obj --rays rays.csv -o hits.csv --sigma 1"},
+        addFlags, [](Args& a) -> int& { return a.flags.threads; }, [](Args& a, Clock::time_point) { execute(a); });
 }
 
 }  // namespace gpisvdb::cli

@@ -179,14 +179,13 @@ void execute(Args& a) {
 }  // namespace
 
 void addRender(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("render", "a PNG picture of a grid on the mean surface (and a slice), with a colour bar");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
-    cmd->footer(
-        "Starts its own Xvfb when no X display answers (tools/setup installs it).\n"
-        "Examples:\n  gpisvdb render green.vdb --grid green --log -o green.png\n"
-        "  gpisvdb render geo.vdb --grid geodesic --paths path.vtp --slice z=0.4 -o geo.png");
-    onRun(*cmd, action, a->threads, [a](Clock::time_point) { execute(*a); });
+    addCommand<Args>(
+        app, action, "render",
+        {"a PNG picture of a grid on the mean surface (and a slice), with a colour bar",
+         "Starts its own Xvfb when no X display answers (tools/setup installs it).\n"
+         "Examples:\n  gpisvdb render green.vdb --grid green --log -o green.png\n"
+         "  gpisvdb render geo.vdb --grid geodesic --paths path.vtp --slice z=0.4 -o geo.png"},
+        addFlags, [](Args& a) -> int& { return a.threads; }, [](Args& a, Clock::time_point) { execute(a); });
 }
 
 }  // namespace gpisvdb::cli

@@ -111,13 +111,12 @@ void execute(Args& a) {
 }  // namespace
 
 void addSample(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("sample", "sample grids of a .vdb at the vertices or points of an input (.ply/.vtp)");
-    auto a = std::make_shared<Args>();
-    addFlags(*cmd, *a);
-    cmd->footer(
-        "Values are trilinear in world space; points outside a grid's band get its background value.\n"
-        "Example:\n  gpisvdb sample green.vdb --at bunny.obj --grid green --grid stddev -o bunny_green.ply");
-    onRun(*cmd, action, a->threads, [a](Clock::time_point) { execute(*a); });
+    addCommand<Args>(
+        app, action, "sample",
+        {"sample grids of a .vdb at the vertices or points of an input (.ply/.vtp)",
+         "Values are trilinear in world space; points outside a grid's band get its background value.\n"
+         "Example:\n  gpisvdb sample green.vdb --at bunny.obj --grid green --grid stddev -o bunny_green.ply"},
+        addFlags, [](Args& a) -> int& { return a.threads; }, [](Args& a, Clock::time_point) { execute(a); });
 }
 
 }  // namespace gpisvdb::cli

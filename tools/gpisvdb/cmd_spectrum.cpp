@@ -52,14 +52,14 @@ void execute(SpectrumArgs& a, Clock::time_point start) {
 }  // namespace
 
 void addSpectrum(CLI::App& app, Action& action) {
-    auto* cmd = app.add_subcommand("spectrum", "lowest eigenpairs of the GPIS Laplacian (L u = lambda M u), as a .vdb");
-    auto a = std::make_shared<SpectrumArgs>();
-    addSpectrumFlags(*cmd, *a, "output .vdb (band grids and eigen_000, eigen_001, ...)");
-    cmd->footer(
-        "Eigenvectors are M-orthonormal (sum of u_i u_j mu h^3 = delta_ij), u = 0 outside the band; eigenvalues\n"
-        "(world units^-2) ascending in the report (spectrum.eigenvalues, spectrum.residuals) and the file metadata.\n"
-        "Example:\n  gpisvdb spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --report spectrum.json");
-    onRun(*cmd, action, a->flags.model.threads, [a](Clock::time_point start) { execute(*a, start); });
+    addCommand<SpectrumArgs>(
+        app, action, "spectrum",
+        {"lowest eigenpairs of the GPIS Laplacian (L u = lambda M u), as a .vdb",
+         "Eigenvectors are M-orthonormal (sum of u_i u_j mu h^3 = delta_ij), u = 0 outside the band; eigenvalues\n"
+         "(world units^-2) ascending in the report (spectrum.eigenvalues, spectrum.residuals) and the file metadata.\n"
+         "Example:\n  gpisvdb spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --report spectrum.json"},
+        [](CLI::App& cmd, SpectrumArgs& a) { addSpectrumFlags(cmd, a, "output .vdb (band grids and eigen_000, eigen_001, ...)"); },
+        [](SpectrumArgs& a) -> int& { return a.flags.model.threads; }, [](SpectrumArgs& a, Clock::time_point start) { execute(a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -140,6 +140,19 @@ std::string& commandLine() {
     return line;
 }
 
+std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv, bool speaks) {
+    for (int i = 0; i < argc; ++i) commandLine() += (i ? " " : "") + std::string(argv[i]);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return speaks ? app.exit(e) : 0;
+    } catch (const CLI::ParseError& e) {
+        if (speaks) app.exit(e);
+        return 2;
+    }
+    return std::nullopt;
+}
+
 void installInterruptHandler(const std::string& program) {
     // SIGINT and SIGTERM are blocked in this thread and so in every thread started after it (TBB's workers
     // included), and received synchronously by the watchdog through a signalfd. No handler of ours then runs

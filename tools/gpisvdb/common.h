@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "gpisvdb/core/errors.h"
@@ -47,6 +48,24 @@ void onRun(CLI::App& cmd, std::function<void()>& action, const int& threads, Run
             run(start);
         };
     });
+}
+
+/// A subcommand's --help: its one-line summary, and the footer (what it writes, an example).
+struct CommandHelp {
+    std::string summary;
+    std::string footer;
+};
+
+/// Registers the subcommand `name`: an Args of its own, its flags (addFlags(cmd, args)), and as its action
+/// execute(args, start) with --threads (threads(args)) held (onRun).
+template <class Args, class AddFlags, class Threads, class Execute>
+void addCommand(CLI::App& app, std::function<void()>& action, const std::string& name, const CommandHelp& help, AddFlags addFlags,
+                Threads threads, Execute execute) {
+    auto* cmd = app.add_subcommand(name, help.summary);
+    auto a = std::make_shared<Args>();
+    addFlags(*cmd, *a);
+    cmd->footer(help.footer);
+    onRun(*cmd, action, threads(*a), [a, execute](Clock::time_point start) { execute(*a, start); });
 }
 
 /// The engine's model options for the flags (reads --labels): pass to loadModel (gpisvdb/model/load_model.h).
@@ -95,6 +114,9 @@ private:
 Progress makeProgress(bool quiet);
 /// The command line as typed (recorded in output metadata).
 std::string& commandLine();
+/// Records the command line (commandLine()) and parses it: the exit code where parsing ends the program (0 after
+/// --help or --version, 2 after a usage error, each printed where `speaks`), nothing where a command is to run.
+std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv, bool speaks = true);
 
 /// Runs a parsed command: an exception becomes one message for `report` ("error: …", the engine's fields named by
 /// their flags (app/parameter_names.h); "interrupted, no output written" with interrupted = true; or "internal

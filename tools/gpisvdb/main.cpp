@@ -37,15 +37,7 @@ int main(int argc, char** argv) {
     cli::addSurfaces(app, action);
     cli::addQuery(app, action);
     cli::addConvert(app, action);
-    for (int i = 0; i < argc; ++i) cli::commandLine() += (i ? " " : "") + std::string(argv[i]);
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::Success& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        app.exit(e);
-        return 2;
-    }
+    if (const auto code = cli::parseCommandLine(app, argc, argv)) return *code;
     return cli::runCommand(action, [](const std::string& message, bool interrupted) {
         cli::removeCommittedOutputs();  // all of a command's outputs or none
         if (interrupted) cli::reportInterrupted("gpisvdb: " + message + "\n");
