@@ -234,3 +234,65 @@ TEST_CASE("repository: every C++ source file is as clang-format writes it (.clan
     CHECK(checked > 200);
     CHECK(r.out.empty());
 }
+
+namespace {
+
+/// The parameter names of a declaration "R f(T a, U<V, W> b = {}, …);": each parameter's last identifier before its
+/// default.
+std::vector<std::string> parameterNames(const std::string& declaration) {
+    const std::size_t open = declaration.find('('), close = declaration.rfind(')');
+    std::vector<std::string> params;
+    std::string current;
+    int depth = 0;
+    for (std::size_t i = open + 1; i <= close; ++i) {
+        const char c = declaration[i];
+        if ((c == ',' && depth == 0) || i == close) {
+            const std::string p = current.substr(0, current.find('='));
+            std::smatch m;
+            if (std::regex_search(p, m, std::regex(R"((\w+)\s*$)"))) params.push_back(m[1]);
+            current.clear();
+            continue;
+        }
+        if (c == '(' || c == '<' || c == '{') ++depth;
+        if (c == ')' || c == '>' || c == '}') --depth;
+        current += c;
+    }
+    return params;
+}
+
+}  // namespace
+
+TEST_CASE("repository: the entry points of tasks/ and app/ document parameters, result, errors, complexity and threads", "[repository]") {
+    // The public headers' doc template (docs/README.md#the-c-library): a function that returns a stage's result
+    // documents each parameter (\param, by its name: Doxygen's test checks the names), what it returns, what it
+    // throws, its complexity and its thread safety. The stages listed here follow it.
+    const std::regex entryPoint(R"(^(\w+Result|BandJob|std::vector<RayHit>) (\w+)\()");
+    std::size_t checked = 0;
+    for (const char* stage : {"tasks", "app"}) {
+        for (const auto& entry : fs::directory_iterator(kSource / "engine/include/gpisvdb" / stage)) {
+            std::vector<std::string> lines;
+            std::istringstream in(readAll(entry.path()));
+            for (std::string line; std::getline(in, line);) lines.push_back(line);
+            for (std::size_t i = 0; i < lines.size(); ++i) {
+                std::smatch m;
+                if (!std::regex_search(lines[i], m, entryPoint)) continue;
+                ++checked;
+                std::string declaration;
+                for (std::size_t j = i; j < lines.size(); ++j) {
+                    declaration += lines[j];
+                    if (lines[j].find(");") != std::string::npos) break;
+                }
+                std::string doc;
+                for (std::size_t j = i; j > 0 && lines[j - 1].rfind("///", 0) == 0; --j) doc = lines[j - 1] + "\n" + doc;
+                INFO(entry.path().filename().string() << ": " << m[2] << "\n" << doc);
+                for (const char* section : {"\\return ", "\\throws ", "\\par Complexity", "\\par Thread safety"})
+                    CHECK(doc.find(section) != std::string::npos);
+                for (const std::string& p : parameterNames(declaration)) {
+                    INFO("parameter " << p);
+                    CHECK(std::regex_search(doc, std::regex("\\\\param " + p + "\\b")));
+                }
+            }
+        }
+    }
+    CHECK(checked >= 10);  // 10 when written: the eight tasks and the band job's two
+}

@@ -31,7 +31,7 @@ PcgResult pcgResultOf(const mpi::DistributedGreen& g) {
 nlohmann::json greenReport(const BandJob& job, const Args& a, const mpi::DistributedGreen& g, const PcgResult& solve,
                            const openvdb::Coord& y, const nlohmann::json& mpiSection, double total) {
     nlohmann::json report = app::bandReport(job);
-    report["solver"] = solverReport(solve, a.solver);
+    report["solver"] = app::solverReport(solve, a.solver);
     report["solver"]["method"] = std::string("PETSc CG, ") + preconditionerName(g.preconditioner) +
                                  (g.preconditioner == Preconditioner::Multigrid ? " (hypre BoomerAMG)" : "");
     report["mpi"] = mpiSection;

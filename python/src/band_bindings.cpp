@@ -68,7 +68,7 @@ py::dict bandReport(const PyBand& b) {
     report["input"]["source"] = b.job.source;
     report["band"]["bytes_per_voxel"] = b.band().bytesPerVoxel();
     report["timings_s"] = {{"band", b.job.secondsBand}};
-    return py::module_::import("json").attr("loads")(report.dump()).cast<py::dict>();
+    return reportDict(report);
 }
 
 /// File metadata, as the command line writes it (app/band_metadata.h); `mesh` reads 'iso'.

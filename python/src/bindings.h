@@ -20,6 +20,12 @@ namespace py = pybind11;
 using Clock = std::chrono::steady_clock;
 inline double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+/// A report of the application layer (app/) as the dict Python's json module makes of it: the same keys and values
+/// as the command line's JSON file.
+inline py::dict reportDict(const nlohmann::json& report) {
+    return py::module_::import("json").attr("loads")(report.dump()).cast<py::dict>();
+}
+
 // Model
 
 struct Model {

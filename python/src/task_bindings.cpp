@@ -14,6 +14,7 @@
 
 #include "arrays.h"
 #include "bindings.h"
+#include "gpisvdb/app/solver_report.h"
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/ops/laplacian.h"
 #include "gpisvdb/output/mean_surface.h"
@@ -50,9 +51,12 @@ PcgOptions pcgOptions(double tolerance, int maxIterations, const std::string& pr
     return o;
 }
 
-py::dict solverInfo(const PcgResult& r) {
-    return py::dict("iterations"_a = r.iterations, "relative_residual"_a = r.relativeResidual, "restarts"_a = r.restarts,
-                    "converged"_a = r.converged, "preconditioner"_a = preconditionerName(r.preconditioner));
+/// The command line's `solver` section (app::solverReport), with `converged`: Python returns a solve short of its
+/// tolerance rather than raising.
+py::dict solverInfo(const PcgResult& r, const PcgOptions& options) {
+    nlohmann::json report = app::solverReport(r, options);
+    report["converged"] = r.converged;
+    return reportDict(report);
 }
 
 py::dict green(const PyBand& b, py::handle source, double tolerance, int maxIterations, const std::string& preconditioner, int threads,
@@ -64,7 +68,7 @@ py::dict green(const PyBand& b, py::handle source, double tolerance, int maxIter
         const LaplacianOperator L(b.band());  // IC and multigrid assemble it for their set-up
         return greensFunction(b.band(), L, y, po, progress);
     });
-    return py::dict("values"_a = copyOf<float>(g.values), "source_index"_a = g.sourceIndex, "solver"_a = solverInfo(g.solver));
+    return py::dict("values"_a = copyOf<float>(g.values), "source_index"_a = g.sourceIndex, "solver"_a = solverInfo(g.solver, po));
 }
 
 py::dict geodesic(const PyBand& b, py::handle sources, py::object targets, bool stopAtTargets, int threads, py::object progress) {
@@ -187,7 +191,7 @@ py::dict hodge(const PyBand& b, py::handle field, const std::string& boundary, d
     return py::dict("input"_a = copyOf<float>(V, 3), "potential"_a = copyOf<float>(r.potential),
                     "gradient"_a = copyOf<float>(r.gradient, 3), "free"_a = copyOf<float>(r.free, 3),
                     "divergence_residual"_a = r.divergenceResidual, "s_inner_product"_a = r.sInnerProduct,
-                    "solver"_a = solverInfo(r.solver));
+                    "solver"_a = solverInfo(r.solver, o.solver));
 }
 
 py::dict smoothedDistance(const PyBand& b, double alpha, std::optional<double> gridVoxelSize, std::optional<double> padding,

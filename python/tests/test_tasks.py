@@ -16,9 +16,14 @@ def test_green_equals_the_command_line(band, sphere_obj, tmp_path):
     g = band.green(SOURCE)
     assert g["solver"]["converged"]
     assert g["source_index"] == band.nearest(SOURCE)
-    run_cli("green", sphere_obj, "--source", "%g,%g,%g" % SOURCE, "-o", tmp_path / "green.vdb", *FLAGS)
+    run_cli("green", sphere_obj, "--source", "%g,%g,%g" % SOURCE, "-o", tmp_path / "green.vdb",
+            "--report", tmp_path / "green.json", *FLAGS)
     dense, lo = read_grid(tmp_path / "green.vdb", "green")
     np.testing.assert_array_equal(at_coords(dense, lo, band.coords), g["values"])
+    # The command's solver section (app::solverReport), with `converged`
+    cli = json.load(open(tmp_path / "green.json"))["solver"]
+    assert set(g["solver"]) - set(cli) == {"converged"}
+    assert {k: g["solver"][k] for k in cli} == cli
     # Symmetric about its source: largest there.
     assert np.argmax(g["values"]) == g["source_index"]
 

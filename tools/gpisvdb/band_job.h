@@ -8,6 +8,7 @@
 
 #include "common.h"
 #include "gpisvdb/app/band_job.h"
+#include "gpisvdb/app/solver_report.h"
 #include "gpisvdb/band/default_band.h"
 #include "gpisvdb/core/memory_estimate.h"
 #include "gpisvdb/output/write_vdb.h"
@@ -92,10 +93,6 @@ void addSolverFlags(CLI::App& cmd, PcgOptions& options, SolverFlags which);
 
 /// Throws an Error naming the flag to change when a PCG solve stopped short of its tolerance.
 void requireConverged(const PcgResult& result, const PcgOptions& options);
-
-/// The report's `solver` section: method, iterations, restarts, refinements, inner_iterations, relative_residual
-/// (of the double solution when refined), float_residual (of the float grid written) and tolerance.
-nlohmann::json solverReport(const PcgResult& result, const PcgOptions& options);
 
 /// The estimate of a stage that allocates `parts` (bytes) on the band: the settled resident set now as its
 /// baseline. Throws MemoryLimitError, before the stage allocates, when baseline + parts exceed the job's memory

@@ -57,7 +57,7 @@ std::unique_ptr<SpilledBandGrids> spillForSolve(const Args& a, BandCommand& run,
 /// The report: the band's, with the solve and the source.
 nlohmann::json greenReport(const BandJob& job, const Args& a, const GreenResult& g, const openvdb::Coord& y, bool spilled) {
     nlohmann::json report = app::bandReport(job);
-    report["solver"] = solverReport(g.solver, a.solver);
+    report["solver"] = app::solverReport(g.solver, a.solver);
     report["green"] = {
         {"source", a.source}, {"source_voxel", {y.x(), y.y(), y.z()}}, {"source_index", g.sourceIndex}, {"spilled_band_grids", spilled}};
     report["outputs"] = {a.output};

@@ -118,7 +118,7 @@ void execute(Args& a, Clock::time_point start) {
     const double total = std::chrono::duration<double>(Clock::now() - start).count();
     if (run.report) {
         nlohmann::json report = app::bandReport(job);
-        report["solver"] = solverReport(r.solver, a.solver);
+        report["solver"] = app::solverReport(r.solver, a.solver);
         report["memory"]["stages"] = {{"hodge", memoryStageReport(memory, solvePeak, stageOnly)}};
         report["hodge"] = hodgeSection(a, band, V, r);
         report["timings_s"] = {{"model", job.secondsModel}, {"band", job.secondsBand}, {"solve", secondsSolve}, {"total", total}};

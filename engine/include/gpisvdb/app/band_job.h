@@ -30,13 +30,39 @@ struct BandJob : DefaultBand {
     std::vector<std::string> warnings;
 };
 
-/// Builds the default band of `model` (built from `asked`): planDefaultBandFor, then buildPlannedBand with `build`
-/// (empty: buildBand; mpi/ passes its distributed build). Throws what they throw (MemoryLimitError before the
-/// model is evaluated at a voxel). `job.warnings` is left empty: the front end words them (bandWarnings).
+/// Builds the default band of `model`: planDefaultBandFor, then buildPlannedBand with `build`. `job.warnings` is
+/// left empty: the front end words them (bandWarnings).
+/// \param model     the loaded model; where the plan's voxel size sets s (voxel values), the band is built on a
+///                  copy rebuilt at that s and `model` is left as it was
+/// \param asked     the settings `model` was loaded with (the report's and the rebuilt model's)
+/// \param options   the band's options as asked: voxel size (0: the default rule), budget, values, memory limit
+/// \param progress  reports the band's search; its interrupt stops it and the resolution before it (Cancelled)
+/// \param build     builds the band from the resolved options (empty: buildBand; mpi/ passes its distributed build)
+/// \return the band with its plan, model and settings, secondsBand and bandBytesPerVoxel set
+/// \throws ParameterError for bad options; MemoryLimitError when the band would not fit the memory limit (before the
+///         model is evaluated at a single voxel); Cancelled when interrupted
+/// \par Complexity
+///   The resolution at up to 200 000 of the samples, then O(E) model and Kac–Rice evaluations for E evaluated voxels
+///   (estimate.evaluated, ≈ 1.5× the band), each O(log n) with Barnes–Hut over n samples and O(S) in the QMC count S.
+///   Memory estimate.memory (docs/memory.md#band).
+/// \par Thread safety
+///   Reads `model` only: concurrent calls are safe. Parallel inside (TBB); the band is the same for any thread count.
 BandJob buildBandJob(std::shared_ptr<const LoadedModel> model, const ModelOptions& asked, const DefaultBandOptions& options,
                      const Progress& progress = {}, const BandBuilder& build = {});
 
-/// loadModel(data, asked), then buildBandJob; `source` is data.path.
+/// loadModel(data, asked), then buildBandJob; `source` is data.path and secondsModel the model's load.
+/// \param data      the input as read (readInput, or a mesh or cloud made in memory)
+/// \param asked     the model's settings (σ, smoothing, the model's kind, Barnes–Hut β)
+/// \param options   the band's options, as for buildBandJob
+/// \param progress  as for buildBandJob
+/// \param build     as for buildBandJob
+/// \return as buildBandJob's
+/// \throws InputError for an input loadModel refuses (empty, non-finite, degenerate); ParameterError and
+///         MemoryLimitError as loadModel and buildBandJob; Cancelled when interrupted
+/// \par Complexity
+///   loadModel's O(n log n) for n samples (their tree), then buildBandJob's.
+/// \par Thread safety
+///   Reads `data` only: concurrent calls are safe. Parallel inside (TBB); the result is the same for any thread count.
 BandJob runBandJob(const InputData& data, const ModelOptions& asked, const DefaultBandOptions& options, const Progress& progress = {},
                    const BandBuilder& build = {});
 

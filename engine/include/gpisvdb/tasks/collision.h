@@ -39,8 +39,23 @@ std::vector<Vec3d> meshSamplePoints(const std::vector<Vec3d>& vertices, const st
 /// vertices), without making the points; the same errors.
 std::size_t meshSamplePointCount(const std::vector<Vec3d>& vertices, const std::vector<std::array<int, 3>>& triangles, double step);
 
-/// P(the mesh meets {φ > u}): γ from `model` (the winding model of `samples`), J ε of each draw from the samples'
-/// tree (smoothing s, world units). Throws ParameterError on bad options, InputError on an empty mesh.
+/// P(the mesh meets {φ > u}) by Monte Carlo over draws of the input's noise (docs/uncertainty.md).
+/// \param model      the winding model of `samples`: γ at the mesh's points
+/// \param samples    its samples: J ε of each draw from their tree
+/// \param s          the model's smoothing, world units
+/// \param vertices   the mesh's vertices, world units
+/// \param triangles  its triangles, as indices into `vertices`
+/// \param options    draws, seed, the points' spacing on the mesh, the iso-value u, the draws' Barnes–Hut β
+/// \param progress   reports the draws done; its interrupt stops them (Cancelled)
+/// \return the probability, its standard error, the points sampled and the largest single-point P(φ > u)
+/// \throws ParameterError on bad options or too many points on the mesh; InputError on an empty mesh, a vertex that
+///         is not finite or a triangle naming a missing vertex; Cancelled when interrupted
+/// \par Complexity
+///   P points on the mesh (meshSamplePointCount); each draw evaluates J ε at them, O(P log n) over n samples: O(draws
+///   · P log n) in all. Memory O(P) beside the samples' tree.
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Each draw depends on its seed and index alone, so the result
+///   is the same for any thread count.
 CollisionResult collisionProbability(const GpisModel& model, const Samples& samples, double s, const std::vector<Vec3d>& vertices,
                                      const std::vector<std::array<int, 3>>& triangles, const CollisionOptions& options,
                                      const Progress& progress = {});

@@ -55,6 +55,20 @@ struct HodgeResult {
 /// double solve's vectors (44 in all) instead.
 double hodgeBytes(std::size_t n, const HodgeOptions& options, bool includeFallback = false);
 
+/// V = G_φ ψ + V_free with D_φ V_free = 0 (paper App. E): ψ from (G_φᵀ BlockDiag(h³ T) G_φ) ψ = G_φᵀ (M ⊗ I) V by
+/// the PCG.
+/// \param band      the band (its μ and T), N voxels
+/// \param V         the vector field, 3N floats (x, y, z per voxel, by linear index), world units
+/// \param options   the solver's tolerance, iteration cap and refinement
+/// \param progress  reports the PCG's iterations; its interrupt stops the solve (Cancelled)
+/// \return ψ, the gradient and free parts (3N each) and the checks of the split (divergence residual, S-orthogonality)
+/// \throws Error when V does not have 3N entries; InputError when it holds NaN or ∞; ParameterError for bad options;
+///         Cancelled when interrupted (a solve short of its tolerance is returned with solver.converged false)
+/// \par Complexity
+///   O(N) per PCG iteration on the face-flux operator; memory hodgeBytes(N, options) beside the band and V.
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel inside (TBB); the result is the same for any thread
+///   count.
 HodgeResult hodgeDecomposition(const Band& band, const std::vector<float>& V, const HodgeOptions& options = {},
                                const Progress& progress = {});
 

@@ -69,8 +69,22 @@ std::vector<std::pair<std::string, double>> regressionBytes(std::size_t voxels, 
 
 /// The GP posterior with the Matérn kernel of `eigen` given `data`: constant prior mean (the data mean), noise
 /// variances from data.noise (0: exact data, interpolated). Function space (m × m Cholesky) when some noise is
-/// 0 or m ≤ k, weight space (k × k) otherwise; both exact. Throws ParameterError for empty data, points off the
-/// band, or more than 20 000 exact (noise-free) points.
+/// 0 or m ≤ k, weight space (k × k) otherwise; both exact.
+/// \param band      the band the eigenpairs were computed on, N voxels
+/// \param eigen     its k lowest eigenpairs (spectrum)
+/// \param data      m points (world units) with values and noise standard deviations
+/// \param options   the Matérn kernel's ν, κ and amplitude, and the solve's space
+/// \param progress  reports the posterior's evaluation over the band; its interrupt stops it (Cancelled)
+/// \return the posterior mean and variance by linear index, and the solve's figures
+/// \throws ParameterError for empty data, a point that is not finite or off the band, eigenpairs of another band, a
+///         bad kernel, or more than 20 000 exact (noise-free) points; Error when the kernel matrix cannot be factored;
+///         Cancelled when interrupted
+/// \par Complexity
+///   Features O(m k); the solve O(m³ + m² k) in function space, O(m k² + k³) in weight space; the evaluation over
+///   the band O(N k²). Memory regressionBytes(N, data, k, options) beside the eigenpairs.
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel inside (TBB); the result is the same for any thread
+///   count.
 RegressionResult gpRegression(const Band& band, const EigenResult& eigen, const PointData& data, const RegressionOptions& options = {},
                               const Progress& progress = {});
 

@@ -39,10 +39,22 @@ struct RayHit {
     double stddev = 0;          ///< std of T given a hit, world units (NaN when hit = 0)
 };
 
-/// The first-hit distribution along each ray. Parallel over the points (the model's batch evaluation); results do
-/// not depend on the thread count. Throws ParameterError on a ray of zero direction, a non-finite value, a length
-/// ≤ 0 or a step ≤ 0, and when one ray would need more than 1e6 points or all of them more than 1e8. The no-hit
-/// probability is kept at most P(φ(t) < u) at every point (a step that jumps over an entry lands inside).
+/// The first-hit distribution along each ray (docs/uncertainty.md#ray-queries). The no-hit probability is kept at
+/// most P(φ(t) < u) at every point (a step that jumps over an entry lands inside).
+/// \param model     the GPIS (either model), world units
+/// \param rays      origins, directions and lengths, world units
+/// \param options   the iso-value u and the step Δ between the points evaluated along each ray
+/// \param progress  reports the rays done; its interrupt stops the query (Cancelled)
+/// \return one RayHit per ray, in order
+/// \throws ParameterError on a ray of zero direction, a non-finite value, a length ≤ 0 or a step ≤ 0, and when one
+///         ray would need more than 1e6 points or all of them more than 1e8 (before any evaluation); Cancelled when
+///         interrupted
+/// \par Complexity
+///   P = Σ (⌈L/Δ⌉ + 1) points, each one evaluation of (φ, ∇φ) and their covariance: O(log n) with Barnes–Hut over n
+///   samples. Rays are evaluated in batches of whole rays of about 2^18 points: memory O(2^18 + the longest ray).
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel over the points (the model's batch evaluation); the
+///   result is the same for any thread count.
 std::vector<RayHit> queryRays(const GpisModel& model, const std::vector<Ray>& rays, const RayQueryOptions& options,
                               const Progress& progress = {});
 

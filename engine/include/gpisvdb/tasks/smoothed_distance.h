@@ -88,8 +88,20 @@ std::vector<std::pair<std::string, double>> smoothedDistanceBytes(const Band& ba
 /// names it); 0 when none does: the k-d tree over the band's voxels alone is larger.
 double smoothedDistanceGridVoxelSizeWithin(const Band& band, const SmoothedDistanceOptions& options, bool levelCopy, double bytes);
 
-/// d_α on a grid covering the band's box plus padding; grid point k sits at H·k (world units). Parallel over
-/// points; the result does not depend on the thread count.
+/// d_α (paper Eq. 31) on a grid covering the band's box plus padding; grid point k sits at H·k (world units).
+/// \param band      the band (its μ), N voxels
+/// \param options   α, the grid's voxel size H and padding, the tolerance of the truncated sum, the memory limit
+/// \param progress  reports the grid points done; its interrupt stops the sum (Cancelled)
+/// \return the grid of d_α and its figures (points, terms summed, the tolerance met)
+/// \throws ParameterError for a bad α, H, padding or tolerance; MemoryLimitError when the grid and the k-d tree
+///         would exceed options.maxBytes (before they are allocated); Error on an empty band; Cancelled when
+///         interrupted
+/// \par Complexity
+///   A k-d tree over the band's voxels, O(N log N); then per grid point a query of the voxels within the tolerance's
+///   reach, O(log N + the voxels summed). Memory smoothedDistanceBytes(band, options).
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel over grid points (TBB); the result is the same for
+///   any thread count.
 SmoothedDistanceResult smoothedDistanceGrid(const Band& band, const SmoothedDistanceOptions& options, const Progress& progress = {});
 
 }  // namespace gpisvdb
