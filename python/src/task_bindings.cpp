@@ -332,9 +332,10 @@ void bindBandTasks(py::class_<PyBand>& band) {
              "max_iterations"_a = PcgOptions{}.maxIterations, "preconditioner"_a = "auto", "threads"_a = 0, "progress"_a = py::none(),
              R"doc(The Green's function of the GPIS Laplacian from a source point (x, y, z, world units; snapped to the nearest
 voxel): solves L f = M delta_y by PCG (docs/operators.md), as `gpisvdb green`.
-Returns {'values': (N,) float32 G(., y), 'source_index': int, 'solver': {iterations, relative_residual, restarts,
-converged, preconditioner}}. tolerance: PCG relative residual (> 0); preconditioner 'auto' (multigrid from 1e5
-voxels, Jacobi below), 'multigrid' (hypre BoomerAMG), 'jacobi' or 'ic'.)doc")
+Returns {'values': (N,) float32 G(., y), 'source_index': int, 'solver': the command's report section (method,
+preconditioner, iterations, restarts, relative_residual, ...) with 'converged'}. tolerance: PCG relative residual
+(> 0); preconditioner 'auto' (the aggregation multigrid from 1e5 voxels, Jacobi below), 'aggregation',
+'multigrid' (hypre BoomerAMG), 'jacobi' or 'ic'.)doc")
         .def("geodesic", &geodesic, "sources"_a, "targets"_a = py::none(), py::kw_only(), "stop_at_targets"_a = false, "threads"_a = 0,
              "progress"_a = py::none(),
              R"doc(Geodesic distance on the GPIS by Hamiltonian fast marching (docs/geodesic.md), as `gpisvdb geodesic`.
