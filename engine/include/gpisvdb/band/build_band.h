@@ -74,11 +74,51 @@ struct BandVoxel {
 
 /// The band over `voxels` (distinct coordinates): the index tree in leaf order, the channels, and the Selling
 /// stencil of T regularised to anisotropy ≤ maxAnisotropy. Fills stats.regularised and stats.maxStencilL1.
+/// \param voxels         the voxels' fields (BandVoxel), index space, each coordinate once
+/// \param voxelSize      h, world units (> 0)
+/// \param maxAnisotropy  T is regularised to √(λmax/λmin) ≤ this before Selling (≥ 1)
+/// \param progress       its interrupt stops the build (Cancelled)
+/// \return the band and its statistics (the search's fields left 0)
+/// \throws ParameterError for h or the cap out of range; Error for a coordinate listed twice or 2³¹ voxels or more;
+///         Cancelled when interrupted
+/// \par Complexity
+///   O(N) for N voxels: the index tree's insertions, the channels in leaf order, Selling's decomposition per voxel;
+///   memory about the band's own (kFoundBytesPerVoxel and the index tree's).
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel inside (TBB); the band is the same for any thread
+///   count.
 BandResult bandFromVoxels(std::vector<BandVoxel> voxels, double voxelSize, double maxAnisotropy, const Progress& progress = {});
 
+/// The band by a breadth-first search from the samples' voxels: each level evaluates the GPIS and μ, T by Kac–Rice at
+/// its voxels' unvisited neighbours and keeps those with μ > η (docs/band.md).
+/// \param model     the GPIS (either model), world units
+/// \param samples   its samples: the search starts from their voxels, and η is relative to the median μ there
+/// \param options   h, u, η, S, the anisotropy cap, the voxel budget, the batch size, the voxel values
+/// \param progress  reports the voxels evaluated; its interrupt stops the search (Cancelled)
+/// \return the band (index space, h·k world units) and its statistics
+/// \throws ParameterError for bad options (checkBandOptions) or an h at which an index coordinate would pass 1e9;
+///         MemoryLimitError once more than options.maxVoxels would be evaluated; InputError when μ vanishes at the
+///         samples' voxels; Cancelled when interrupted
+/// \par Complexity
+///   O(E) evaluations for E evaluated voxels (≈ 1.5× the band), each a model evaluation (O(log n) with Barnes–Hut
+///   over n samples) and Kac–Rice's O(S). Memory bandBuildBytes (default_band.h): the band and a batch in flight.
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel over each batch (TBB); the band is the same for any
+///   thread count and batch size.
 BandResult buildBand(const GpisModel& model, const Samples& samples, const BandOptions& options, const Progress& progress = {});
 
 /// Baseline: evaluates every voxel of the samples' bounding box, grown until no band voxel touches its boundary.
+/// \param model     as for buildBand
+/// \param samples   as for buildBand: their bounding box is the first one scanned
+/// \param options   as for buildBand
+/// \param progress  reports the voxels evaluated; its interrupt stops the scan (Cancelled)
+/// \return the same band as buildBand's, to the bit (tested), with its statistics
+/// \throws as buildBand
+/// \par Complexity
+///   O(V) evaluations for the V voxels of the final box: far more than buildBand's for a thin band (the box's volume
+///   over the band's). Memory O(V).
+/// \par Thread safety
+///   As buildBand.
 BandResult scanBand(const GpisModel& model, const Samples& samples, const BandOptions& options, const Progress& progress = {});
 
 // === The steps buildBand is made of, for builders that distribute them (mpi/, docs/mpi.md)

@@ -150,12 +150,33 @@ DefaultBandPlan planDefaultBandFor(std::shared_ptr<const LoadedModel>& model, co
                                    const DefaultBandOptions& options, const Progress& progress = {});
 
 /// The band of a plan (planDefaultBand): `build` (empty: buildBand) with the plan's options.
+/// \param model     the GPIS the plan was made for
+/// \param samples   its samples
+/// \param plan      the plan: resolution, options as used, memory limit, estimate
+/// \param build     builds the band from the plan's options (empty: buildBand)
+/// \param progress  passed to `build`
+/// \return the plan with the band built
+/// \throws what `build` throws (buildBand's errors)
+/// \par Complexity
+///   buildBand's at the plan's options; memory plan.estimate.memory.
+/// \par Thread safety
+///   As `build`.
 DefaultBand buildPlannedBand(const GpisModel& model, const Samples& samples, const DefaultBandPlan& plan, const BandBuilder& build = {},
                              const Progress& progress = {});
 
-/// planDefaultBand, then buildBand (or options.build). Throws ParameterError for bad options, MemoryLimitError
-/// (naming DefaultBandOptions::maxMemory and BandOptions::voxelSize, with the voxel size that would fit) when the
-/// estimate exceeds kMaxBandVoxels voxels or maxMemory bytes, and Cancelled when `progress` asks to stop.
+/// planDefaultBand, then buildBand (or options.build).
+/// \param model     the GPIS, world units
+/// \param samples   its samples
+/// \param options   the band's options; voxel size 0: the resolution rule and the band-voxel budget choose it
+/// \param progress  reports the search; its interrupt stops it and the resolution before it (Cancelled)
+/// \return the plan and the band
+/// \throws ParameterError for bad options; MemoryLimitError (naming DefaultBandOptions::maxMemory and
+///         BandOptions::voxelSize, with the voxel size that would fit) when the estimate exceeds kMaxBandVoxels voxels
+///         or maxMemory bytes, before the model is evaluated at a voxel; Cancelled when interrupted
+/// \par Complexity
+///   The resolution at up to 200 000 of the samples, then buildBand's; memory estimate.memory.
+/// \par Thread safety
+///   As buildBand.
 DefaultBand buildDefaultBand(const GpisModel& model, const Samples& samples, const DefaultBandOptions& options = {},
                              const Progress& progress = {});
 

@@ -58,10 +58,23 @@ struct EigenResult {
 /// measured on bunny bands of 81 k – 321 k voxels, k = 20 and 200).
 double eigenBytes(double factorNonzeros, double n, double subspace, double count);
 
-/// The k lowest eigenpairs. Throws ParameterError for k out of range, a mass that is not positive or a solve that
-/// would exceed options.maxBytes (checked after CHOLMOD's symbolic analysis, before any large allocation), Error when L
-/// is not positive definite or Lanczos does not converge within maxRestarts. Deterministic (sequential CHOLMOD,
-/// fixed start vector), so identical for any thread count.
+/// The k lowest eigenpairs of L u = λ M u, M = diag(mass).
+/// \param L         the Laplacian, N × N, symmetric positive definite (double CSR)
+/// \param mass      M's diagonal, N entries (> 0)
+/// \param options   k, the subspace, tolerance, restarts, method and the memory limit maxBytes
+/// \param progress  reports the solver's progress; its interrupt stops it (Cancelled)
+/// \return λ ascending, the M-orthonormal vectors (N × k) and the solve's figures
+/// \throws ParameterError for k out of range, a mass that is not positive or a solve that would exceed
+///         options.maxBytes (checked after CHOLMOD's symbolic analysis, before any large allocation); Error when L is
+///         not positive definite or the solver does not converge within its restarts or iterations; Cancelled when
+///         interrupted
+/// \par Complexity
+///   Shift-invert Lanczos: one sparse Cholesky factorisation (its fill sets time and memory, eigenBytes), then one
+///   pair of triangular solves per Lanczos step. LOBPCG: O(k² N + k nnz(L)) per iteration and a multigrid cycle per
+///   vector.
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Deterministic (sequential CHOLMOD, a fixed start vector):
+///   identical for any thread count.
 EigenResult lowestEigenpairs(const SparseMatrixD& L, const Eigen::VectorXd& mass, const EigenOptions& options = {},
                              const Progress& progress = {});
 

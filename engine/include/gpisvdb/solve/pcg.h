@@ -129,13 +129,64 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
-/// One solve: PcgSolver(A, options).solve(b, x, progress).
+/// One solve of A x = b: PcgSolver(A, options).solve(b, x, progress).
+/// \param A         a symmetric positive definite operator of n unknowns (a LaplacianOperator, an AssembledOperator, …)
+/// \param b         the right-hand side, n entries
+/// \param x         the initial guess on entry (resized to n and zeroed if it has another length), the solution on
+///                  return
+/// \param options   tolerance, iteration cap, preconditioner (Automatic: the measured choice by n), refinement
+/// \param progress  reports the iterations; its interrupt stops the solve (Cancelled)
+/// \return the iterations, the true relative residual at exit and whether it met the tolerance (a solve short of
+///         it is returned, not thrown: the caller decides)
+/// \throws ParameterError for bad options (checkPcgOptions) or a preconditioner the operator cannot take; Error for
+///         a b of another length or not finite, an operator not positive definite on b's Krylov space, or a failed
+///         incomplete Cholesky; Cancelled when interrupted
+/// \par Complexity
+///   One product with A (O(nnz(A))) and one preconditioner application per iteration; memory pcgWorkBytes(n, options)
+///   and the preconditioner's own.
+/// \par Thread safety
+///   Reads A and b only: concurrent calls are safe. Parallel inside (TBB, reductions in a fixed order); the result is
+///   the same for any thread count.
 PcgResult solvePcg(const SymmetricOperator& A, const std::vector<float>& b, std::vector<float>& x, const PcgOptions& options = {},
                    const Progress& progress = {});
 /// One solve in double: PcgSolver(A, options).solve(b, x, progress).
+/// \param A         a symmetric positive definite operator of n unknowns
+/// \param b         the right-hand side, n entries
+/// \param x         the initial guess on entry (resized to n and zeroed if it has another length), the solution on
+///                  return
+/// \param options   tolerance, iteration cap, preconditioner (Automatic: the measured choice by n), refinement
+/// \param progress  reports the iterations; its interrupt stops the solve (Cancelled)
+/// \return the iterations, the true relative residual at exit and whether it met the tolerance (a solve short of
+///         it is returned, not thrown: the caller decides)
+/// \throws ParameterError for bad options (checkPcgOptions) or a preconditioner the operator cannot take; Error for
+///         a b of another length or not finite, an operator not positive definite on b's Krylov space, or a failed
+///         incomplete Cholesky; Cancelled when interrupted
+/// \par Complexity
+///   One product with A (O(nnz(A))) and one preconditioner application per iteration; memory pcgWorkBytes(n, options)
+///   and the preconditioner's own.
+/// \par Thread safety
+///   Reads A and b only: concurrent calls are safe. Parallel inside (TBB, reductions in a fixed order); the result is
+///   the same for any thread count.
 PcgResult solvePcg(const SymmetricOperator& A, const std::vector<double>& b, std::vector<double>& x, const PcgOptions& options = {},
                    const Progress& progress = {});
 /// Same, on an assembled matrix.
+/// \param A         a symmetric positive definite matrix, n × n (float CSR)
+/// \param b         the right-hand side, n entries
+/// \param x         the initial guess on entry (resized to n and zeroed if it has another length), the solution on
+///                  return
+/// \param options   tolerance, iteration cap, preconditioner (Automatic: the measured choice by n), refinement
+/// \param progress  reports the iterations; its interrupt stops the solve (Cancelled)
+/// \return the iterations, the true relative residual at exit and whether it met the tolerance (a solve short of
+///         it is returned, not thrown: the caller decides)
+/// \throws ParameterError for bad options (checkPcgOptions) or a preconditioner the operator cannot take; Error for
+///         a b of another length or not finite, an operator not positive definite on b's Krylov space, or a failed
+///         incomplete Cholesky; Cancelled when interrupted
+/// \par Complexity
+///   One product with A (O(nnz(A))) and one preconditioner application per iteration; memory pcgWorkBytes(n, options)
+///   and the preconditioner's own.
+/// \par Thread safety
+///   Reads A and b only: concurrent calls are safe. Parallel inside (TBB, reductions in a fixed order); the result is
+///   the same for any thread count.
 PcgResult solvePcg(const SparseMatrixF& A, const std::vector<float>& b, std::vector<float>& x, const PcgOptions& options = {},
                    const Progress& progress = {});
 
