@@ -41,8 +41,7 @@ void addMpiBand(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
         {"narrow band of the GPIS (as gpisvdb band), built across the MPI ranks",
          "The same grids and metadata as gpisvdb band; the report adds an 'mpi' section.\n"
          "Example:\n  mpirun -n 4 gpisvdb-mpi band bunny.obj -o bunny.vdb --sigma 1 --threads 1"},
-        [](CLI::App& cmd, BandArgs& a) { addBandArgs(cmd, a, "output .vdb (written by rank 0)"); },
-        [](BandArgs& a) -> int& { return a.flags.model.threads; },
+        [](CLI::App& cmd, BandArgs& a) { addBandArgs(cmd, a, "output .vdb (written by rank 0)"); }, bandThreads<BandArgs>,
         [&ranks](BandArgs& a, Clock::time_point start) { execute(ranks, a, start); });
 }
 

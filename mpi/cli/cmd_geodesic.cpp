@@ -15,8 +15,7 @@ void addMpiGeodesic(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
          "The band is built across the ranks and gathered on rank 0, which marches: its memory bounds the band\n"
          "(the band and about 65 bytes per voxel for the march).\n"
          "Example:\n  mpirun -n 4 gpisvdb-mpi geodesic bunny.obj --source 0.5,6,1 --target -2,9,0 -o geo.vdb --threads 1"},
-        addGeodesicFlags, [](GeodesicArgs& a) -> int& { return a.flags.model.threads; },
-        [&ranks](GeodesicArgs& a, Clock::time_point start) {
+        addGeodesicFlags, bandThreads<GeodesicArgs>, [&ranks](GeodesicArgs& a, Clock::time_point start) {
             GeodesicRequest request;
             mpi::together(ranks, [&] { request = geodesicRequest(a, ranks.rank == 0); });
             MpiBandCommand run = startMpiBandCommand(ranks, a.input, a.output, a.flags);

@@ -78,14 +78,12 @@ void execute(const mpi::Ranks& ranks, Args& a, Clock::time_point start) {
 }  // namespace
 
 void addMpiGreen(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    addCommand<Args>(
-        app, action, "green",
-        {"Green's function of the GPIS Laplacian (as gpisvdb green), solved across the MPI ranks by PETSc",
-         "Solves L f = M delta_y with PETSc's CG; the solver's settings can be overridden through PETSC_OPTIONS\n"
-         "(prefix green_, e.g. PETSC_OPTIONS='-green_pc_hypre_boomeramg_strong_threshold 0.6').\n"
-         "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --threads 1"},
-        addFlags, [](Args& a) -> int& { return a.flags.model.threads; },
-        [&ranks](Args& a, Clock::time_point start) { execute(ranks, a, start); });
+    addCommand<Args>(app, action, "green",
+                     {"Green's function of the GPIS Laplacian (as gpisvdb green), solved across the MPI ranks by PETSc",
+                      "Solves L f = M delta_y with PETSc's CG; the solver's settings can be overridden through PETSC_OPTIONS\n"
+                      "(prefix green_, e.g. PETSC_OPTIONS='-green_pc_hypre_boomeramg_strong_threshold 0.6').\n"
+                      "Example:\n  mpirun -n 4 gpisvdb-mpi green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --threads 1"},
+                     addFlags, bandThreads<Args>, [&ranks](Args& a, Clock::time_point start) { execute(ranks, a, start); });
 }
 
 }  // namespace gpisvdb::cli

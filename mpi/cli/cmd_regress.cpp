@@ -66,14 +66,13 @@ void execute(const mpi::Ranks& ranks, RegressArgs& a, Clock::time_point start) {
 }  // namespace
 
 void addMpiRegress(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
-    addCommand<RegressArgs>(
-        app, action, "regress",
-        {"Gaussian-process regression on the GPIS (as gpisvdb regress): eigenpairs across the MPI ranks by SLEPc",
-         "The eigenpairs are SLEPc's across the ranks (see spectrum); rank 0 gathers them with the band and\n"
-         "computes the posterior (its memory holds the band and the k eigenvectors in double).\n"
-         "Example:\n  mpirun -n 4 gpisvdb-mpi regress bunny.obj --data temperature.csv -o regression.vdb --threads 1"},
-        addRegressFlags, [](RegressArgs& a) -> int& { return a.flags.model.threads; },
-        [&ranks](RegressArgs& a, Clock::time_point start) { execute(ranks, a, start); });
+    addCommand<RegressArgs>(app, action, "regress",
+                            {"Gaussian-process regression on the GPIS (as gpisvdb regress): eigenpairs across the MPI ranks by SLEPc",
+                             "The eigenpairs are SLEPc's across the ranks (see spectrum); rank 0 gathers them with the band and\n"
+                             "computes the posterior (its memory holds the band and the k eigenvectors in double).\n"
+                             "Example:\n  mpirun -n 4 gpisvdb-mpi regress bunny.obj --data temperature.csv -o regression.vdb --threads 1"},
+                            addRegressFlags, bandThreads<RegressArgs>,
+                            [&ranks](RegressArgs& a, Clock::time_point start) { execute(ranks, a, start); });
 }
 
 }  // namespace gpisvdb::cli

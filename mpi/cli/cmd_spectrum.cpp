@@ -79,8 +79,7 @@ void addMpiSpectrum(CLI::App& app, Action& action, const mpi::Ranks& ranks) {
         [](CLI::App& cmd, SpectrumArgs& a) {
             addSpectrumFlags(cmd, a, "output .vdb (band grids and eigen_000, eigen_001, ...; written by rank 0)");
         },
-        [](SpectrumArgs& a) -> int& { return a.flags.model.threads; },
-        [&ranks](SpectrumArgs& a, Clock::time_point start) { execute(ranks, a, start); });
+        bandThreads<SpectrumArgs>, [&ranks](SpectrumArgs& a, Clock::time_point start) { execute(ranks, a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -59,6 +59,12 @@ struct GreenArgs : BandArgs {
 /// INPUT, --source, -o,--output (`outputHelp`), the band's flags and the solver's (`solverFlags`).
 void addGreenArgs(CLI::App& cmd, GreenArgs& a, const std::string& outputHelp, SolverFlags solverFlags);
 
+/// --threads of a command that takes the band's flags as `flags` (addCommand's `threads`).
+template <class Args>
+int& bandThreads(Args& a) {
+    return a.flags.model.threads;
+}
+
 /// The band every band command works on (app/band_job.h).
 using BandJob = app::BandJob;
 

@@ -38,8 +38,7 @@ void addBand(CLI::App& app, Action& action) {
          "density, the probability of being inside (--fog-name); an output ending in .nvdb is NanoVDB;\n"
          "with --stencils also selling_weight_0..5 and selling_offset_0..5 (L can be rebuilt from them).\n"
          "Example:\n  gpisvdb band bunny.obj -o bunny.vdb --sigma 1 --report bunny.json"},
-        [](CLI::App& cmd, BandArgs& a) { addBandArgs(cmd, a, "output .vdb"); }, [](BandArgs& a) -> int& { return a.flags.model.threads; },
-        execute);
+        [](CLI::App& cmd, BandArgs& a) { addBandArgs(cmd, a, "output .vdb"); }, bandThreads<BandArgs>, execute);
 }
 
 }  // namespace gpisvdb::cli

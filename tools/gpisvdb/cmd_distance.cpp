@@ -141,12 +141,11 @@ void execute(Args& a, Clock::time_point start) {
 }  // namespace
 
 void addDistance(CLI::App& app, Action& action) {
-    addCommand<Args>(
-        app, action, "distance",
-        {"Smoothed distance to the GPIS on a grid covering it (paper Eq. 31), as a .vdb",
-         "d(x) = -(1/alpha) log sum_j exp(-alpha |x - x_j|) mu(x_j) h^3, summed with a k-d tree within --distance-tolerance.\n"
-         "Example:\n  gpisvdb distance bunny.obj --alpha 20 --level 0.1 --mesh offset.ply -o distance.vdb --sigma 1"},
-        addFlags, [](Args& a) -> int& { return a.flags.model.threads; }, [](Args& a, Clock::time_point start) { execute(a, start); });
+    addCommand<Args>(app, action, "distance",
+                     {"Smoothed distance to the GPIS on a grid covering it (paper Eq. 31), as a .vdb",
+                      "d(x) = -(1/alpha) log sum_j exp(-alpha |x - x_j|) mu(x_j) h^3, summed with a k-d tree within --distance-tolerance.\n"
+                      "Example:\n  gpisvdb distance bunny.obj --alpha 20 --level 0.1 --mesh offset.ply -o distance.vdb --sigma 1"},
+                     addFlags, bandThreads<Args>, [](Args& a, Clock::time_point start) { execute(a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -15,8 +15,7 @@ void addGeodesic(CLI::App& app, Action& action) {
          "sqrt(mu), so it grows faster where the surface is uncertain. Voxels not reached are inactive in\n"
          "'geodesic' (background: the largest distance reached) and counted in the report.\n"
          "Example:\n  gpisvdb geodesic bunny.obj --source 0.5,6,1 --target -2,9,0 -o geo.vdb --paths path.vtp --sigma 1"},
-        addGeodesicFlags, [](GeodesicArgs& a) -> int& { return a.flags.model.threads; },
-        [](GeodesicArgs& a, Clock::time_point start) {
+        addGeodesicFlags, bandThreads<GeodesicArgs>, [](GeodesicArgs& a, Clock::time_point start) {
             GeodesicRequest request = geodesicRequest(a);
             BandCommand run = startBandCommand(a.input, a.output, a.flags);
             finishGeodesic(run.job, a, request, *run.out, run.report.get(), run.progress, start);

@@ -108,12 +108,11 @@ void execute(Args& a, Clock::time_point start) {
 }  // namespace
 
 void addGreen(CLI::App& app, Action& action) {
-    addCommand<Args>(
-        app, action, "green",
-        {"Green's function of the GPIS Laplacian from a source point, as a .vdb",
-         "Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
-         "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json"},
-        addFlags, [](Args& a) -> int& { return a.flags.model.threads; }, [](Args& a, Clock::time_point start) { execute(a, start); });
+    addCommand<Args>(app, action, "green",
+                     {"Green's function of the GPIS Laplacian from a source point, as a .vdb",
+                      "Solves L f = M delta_y (delta_y: the Dirac of the measure mu at y, so that G(x,y) = G(y,x)).\n"
+                      "Example:\n  gpisvdb green bunny.obj --source 0.5,6,1 -o green.vdb --sigma 1 --report green.json"},
+                     addFlags, bandThreads<Args>, [](Args& a, Clock::time_point start) { execute(a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -134,14 +134,13 @@ void execute(Args& a, Clock::time_point start) {
 }  // namespace
 
 void addHodge(CLI::App& app, Action& action) {
-    addCommand<Args>(
-        app, action, "hodge",
-        {"Hodge decomposition of a vector field on the GPIS into a gradient and a mu-divergence-free part, as a .vdb",
-         "V = grad_phi psi + V_free with D_phi V_free = 0: (G^T BlockDiag(h^3 T) G) psi = G^T (M x I) V by the PCG.\n"
-         "The two parts are orthogonal in the inner product S = mu^2 T^-1 (paper App. E).\n"
-         "Examples:\n  gpisvdb hodge bunny.obj --preset mixed -o hodge.vdb --sigma 1\n"
-         "  gpisvdb hodge bunny.obj --field wind.vdb:vel -o hodge.vdb --report hodge.json"},
-        addFlags, [](Args& a) -> int& { return a.flags.model.threads; }, [](Args& a, Clock::time_point start) { execute(a, start); });
+    addCommand<Args>(app, action, "hodge",
+                     {"Hodge decomposition of a vector field on the GPIS into a gradient and a mu-divergence-free part, as a .vdb",
+                      "V = grad_phi psi + V_free with D_phi V_free = 0: (G^T BlockDiag(h^3 T) G) psi = G^T (M x I) V by the PCG.\n"
+                      "The two parts are orthogonal in the inner product S = mu^2 T^-1 (paper App. E).\n"
+                      "Examples:\n  gpisvdb hodge bunny.obj --preset mixed -o hodge.vdb --sigma 1\n"
+                      "  gpisvdb hodge bunny.obj --field wind.vdb:vel -o hodge.vdb --report hodge.json"},
+                     addFlags, bandThreads<Args>, [](Args& a, Clock::time_point start) { execute(a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -180,13 +180,12 @@ void execute(Args& a) {
 }  // namespace
 
 void addInfo(CLI::App& app, Action& action) {
-    addCommand<Args>(
-        app, action, "info",
-        {"describe an input (samples, length scale, bounding box, what was skipped) "
-         "and forecast the default band: voxel size, voxels, memory, time",
-         "The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
-         "Example:\n  gpisvdb info bunny.obj --sigma 0.25"},
-        addFlags, [](Args& a) -> int& { return a.flags.model.threads; }, [](Args& a, Clock::time_point) { execute(a); });
+    addCommand<Args>(app, action, "info",
+                     {"describe an input (samples, length scale, bounding box, what was skipped) "
+                      "and forecast the default band: voxel size, voxels, memory, time",
+                      "The forecast takes the band command's flags and builds the model (its time is measured, not predicted).\n"
+                      "Example:\n  gpisvdb info bunny.obj --sigma 0.25"},
+                     addFlags, bandThreads<Args>, [](Args& a, Clock::time_point) { execute(a); });
 }
 
 }  // namespace gpisvdb::cli

@@ -15,8 +15,7 @@ void addRegress(CLI::App& app, Action& action) {
          "Prior: constant mean (the data mean) + a Matern GP built from the k lowest eigenpairs (-k, default 200).\n"
          "Data points must lie in the band (on the shape); the eigenvectors are interpolated trilinearly there.\n"
          "Example:\n  gpisvdb regress bunny.obj --data temperature.csv --nu 1.5 -o regression.vdb --sigma 1"},
-        addRegressFlags, [](RegressArgs& a) -> int& { return a.flags.model.threads; },
-        [](RegressArgs& a, Clock::time_point start) {
+        addRegressFlags, bandThreads<RegressArgs>, [](RegressArgs& a, Clock::time_point start) {
             const RegressionOptions options = regressionOptions(a);  // nothing runs on a bad flag
             const PointData points = readPointData(a.data);
             BandCommand run = startBandCommand(a.input, a.output, a.flags);

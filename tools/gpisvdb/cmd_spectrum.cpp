@@ -59,7 +59,7 @@ void addSpectrum(CLI::App& app, Action& action) {
          "(world units^-2) ascending in the report (spectrum.eigenvalues, spectrum.residuals) and the file metadata.\n"
          "Example:\n  gpisvdb spectrum bunny.obj -k 20 -o spectrum.vdb --sigma 1 --report spectrum.json"},
         [](CLI::App& cmd, SpectrumArgs& a) { addSpectrumFlags(cmd, a, "output .vdb (band grids and eigen_000, eigen_001, ...)"); },
-        [](SpectrumArgs& a) -> int& { return a.flags.model.threads; }, [](SpectrumArgs& a, Clock::time_point start) { execute(a, start); });
+        bandThreads<SpectrumArgs>, [](SpectrumArgs& a, Clock::time_point start) { execute(a, start); });
 }
 
 }  // namespace gpisvdb::cli

@@ -205,14 +205,13 @@ void execute(Args& a, Clock::time_point start) {
 }  // namespace
 
 void addSurfaces(CLI::App& app, Action& action) {
-    addCommand<Args>(
-        app, action, "surfaces",
-        {"plausible surfaces: meshes of n draws of the GPIS, in a directory",
-         "Each draw is one sample of the noise of the input (positions and normals), mapped through the\n"
-         "linearised model: its field gamma + J eps is evaluated on the band and meshed at u, to\n"
-         "DIR/surface_<k>.ply (k the draw's index). The winding-number model only.\n"
-         "Example:\n  gpisvdb surfaces bunny.obj -n 8 --seed 3 --sigma 2 -o bunny-draws/"},
-        addFlags, [](Args& a) -> int& { return a.flags.model.threads; }, [](Args& a, Clock::time_point start) { execute(a, start); });
+    addCommand<Args>(app, action, "surfaces",
+                     {"plausible surfaces: meshes of n draws of the GPIS, in a directory",
+                      "Each draw is one sample of the noise of the input (positions and normals), mapped through the\n"
+                      "linearised model: its field gamma + J eps is evaluated on the band and meshed at u, to\n"
+                      "DIR/surface_<k>.ply (k the draw's index). The winding-number model only.\n"
+                      "Example:\n  gpisvdb surfaces bunny.obj -n 8 --seed 3 --sigma 2 -o bunny-draws/"},
+                     addFlags, bandThreads<Args>, [](Args& a, Clock::time_point start) { execute(a, start); });
 }
 
 }  // namespace gpisvdb::cli
