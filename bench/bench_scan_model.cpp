@@ -3,9 +3,10 @@
 // clouds) — what a denser scan of the same object gives. Per size: the samples' time (areas, ℓ), the Barnes–Hut
 // tree's build time and bytes per sample, and the cost per band-like voxel on one thread (lattice blocks of 8³ at
 // spacing h, world units, each centred on a random sample): the cells' path (evaluateDense, what the band runs),
-// its tables made afresh in each run, and the packets' path (evaluate).
+// its tables made afresh in each run, and the packets' path (evaluate); then the cells' path on the samples merged
+// into Gaussian dipoles at cells of m × s (docs/math.md#merging), what the model sums by default where s > ℓ.
 // Usage: bench_scan_model [--sizes 10000,100000,1000000] [--sigma 0.01] [--h 0.004] [--blocks 16] [--repeat 3]
-//        [--cell-width 12] [--leaf-size 32] [--beta 6] [--covariance-ratio 2] (BarnesHutOptions)
+//        [--cell-width 12] [--leaf-size 32] [--beta 6] [--covariance-ratio 2] (BarnesHutOptions) [--merge 1]
 //        [--out bench/results/scan_model.json]
 #include <fstream>
 #include <iostream>
@@ -17,6 +18,8 @@
 #include "gpisvdb/input/point_cloud.h"
 #include "gpisvdb/input/samples.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "gpisvdb/model/load_model.h"
+#include "gpisvdb/model/merge_samples.h"
 
 #include "timing.h"
 
@@ -56,6 +59,7 @@ int main(int argc, char** argv) {
     double sigma = 0.01, h = 0.004;
     std::size_t blocks = 16;
     int repeat = 3;
+    double merge = kDefaultMergeRel;
     std::string out = "bench/results/scan_model.json";
     BarnesHutOptions options;
     for (int i = 1; i + 1 < argc; i += 2) {
@@ -72,6 +76,7 @@ int main(int argc, char** argv) {
         else if (a == "--leaf-size") options.leafSize = std::stoi(v);
         else if (a == "--beta") options.beta = std::stod(v);
         else if (a == "--covariance-ratio") options.covarianceRatio = std::stod(v);
+        else if (a == "--merge") merge = std::stod(v);
         else if (a == "--out") out = v;
         else {
             std::cerr << "unknown option " << a << "\n";
@@ -95,6 +100,12 @@ int main(int argc, char** argv) {
         tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
         const double cells = bench::medianSeconds(repeat, [&] { bhCold.evaluateDense(xs); }) / double(xs.size());
         const double packets = bench::medianSeconds(repeat, [&] { bh.evaluate(xs); }) / double(xs.size());
+        // === The same on the merged dipoles (the band's default where s > ℓ)
+        t0 = bench::Clock::now();
+        const Samples merged = mergeSamples(samples, merge * smoothing);
+        const double mergeSeconds = bench::seconds(t0);
+        const BarnesHutGpis bhMerged(merged, smoothing, cold);
+        const double cellsMerged = bench::medianSeconds(repeat, [&] { bhMerged.evaluateDense(xs); }) / double(xs.size());
         const nlohmann::json row = {
             {"points", n},
             {"length_scale", samples.lengthScale},
@@ -106,6 +117,9 @@ int main(int argc, char** argv) {
             {"tree_bytes_per_sample", double(bh.memoryBytes()) / double(n)},
             {"cells_us_per_voxel_1t", 1e6 * cells},
             {"packets_us_per_voxel_1t", 1e6 * packets},
+            {"merged_dipoles", merged.size()},
+            {"merge_seconds_1t", mergeSeconds},
+            {"merged_cells_us_per_voxel_1t", 1e6 * cellsMerged},
         };
         std::cerr << row.dump() << "\n";
         rows.push_back(row);
@@ -119,6 +133,7 @@ int main(int argc, char** argv) {
                                          {"leaf_size", options.leafSize},
                                          {"beta", options.beta},
                                          {"covariance_ratio", options.covarianceRatio},
+                                         {"merge_rel", merge},
                                          {"rows", rows}}
                               .dump(2)
                        << "\n";

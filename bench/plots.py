@@ -724,13 +724,16 @@ def plot_scan_model(ctx, d):
     ax = axs[0]
     ax.plot(n, [r["cells_us_per_voxel_1t"] for r in rows], "o-", color="C0", label="cells (the band's path)")
     ax.plot(n, [r["packets_us_per_voxel_1t"] for r in rows], "s--", color="C1", label="packets")
+    if all("merged_cells_us_per_voxel_1t" in r for r in rows):
+        ax.plot(n, [r["merged_cells_us_per_voxel_1t"] for r in rows], "^-", color="C2",
+                label="cells, merged into dipoles at cells of %g s (the default where s > ℓ)" % d.get("merge_rel", 1))
     a = rows[0]
     ref_line(ax, n, a["points"], a["cells_us_per_voxel_1t"], lambda x: x ** 0.5, "∝ √n")
     loglog(ax)
     ax.set_xlabel("cloud points n (unit sphere, σ = %g, s = %g fixed)" % (d.get("sigma", 0), rows[0]["smoothing"]))
     ax.set_ylabel("µs per band-like voxel, 1 thread")
     ax.set_title("Model cost per voxel on denser scans (h = %g)" % d.get("h", 0))
-    ax.legend()
+    ax.legend(fontsize=8)
     ax = axs[1]
     ax.plot(n, [r["samples_seconds_all_threads"] for r in rows], "o-", color="C0", label="samples (areas, ℓ)")
     ax.plot(n, [r["tree_build_seconds_all_threads"] for r in rows], "s-", color="C1", label="Barnes–Hut tree")

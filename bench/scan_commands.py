@@ -67,7 +67,8 @@ def main():
                 r = json.load(open(report))
                 row = {"shape": args.shape, "samples": int(n), "command": name, "flags": flags, "seconds": seconds,
                        "length_scale": r["input"]["length_scale"], "mu_width": r["parameters"]["mu_width"],
-                       "smoothing": r["parameters"]["smoothing"],
+                       "smoothing": r["parameters"]["smoothing"], "model_samples": r["input"].get("model_samples"),
+                       "mass": r["band"]["mass"],
                        "peak_rss_bytes": r["memory"]["peak_rss_bytes"], "band_voxels": r["band"]["voxels"],
                        "voxel_size": r["parameters"]["voxel_size"], "timings_s": r.get("timings_s", {})}
                 if name == "spectrum":

@@ -1386,6 +1386,37 @@ std::string sphereCloud(const std::string& name, int n, double sigma) {
 }
 }  // namespace
 
+TEST_CASE("cli: a cloud denser than the kernel is summed as merged dipoles (said in the report and by info) and --merge 0 sums every point",
+          "[cli]") {
+    // 20 000 points with σ = 0.05: s = 1.2 σ = 0.06 is above ℓ ≈ 0.025, so cells of s hold several points each.
+    const std::string cloud = sphereCloud("merge_cloud.xyz", 20000, 0.05);
+    const std::string vdb = temp("merge.vdb"), merged = temp("merge.json"), every = temp("merge_every.json");
+    const std::string flags = " --max-voxels 30000 --quiet";
+    Run r = run("band " + cloud + " -o " + vdb + " --report " + merged + flags);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    REQUIRE(run("band " + cloud + " -o " + vdb + " --report " + every + flags + " --merge 0").code == 0);
+    const nlohmann::json a = nlohmann::json::parse(std::ifstream(merged)), b = nlohmann::json::parse(std::ifstream(every));
+    CHECK(a["parameters"]["merge_rel"].get<double>() == 1);
+    CHECK(a["input"]["samples"].get<std::size_t>() == 20000);
+    CHECK(a["input"]["model_samples"].get<std::size_t>() < 20000 / 3);
+    CHECK(b["input"]["model_samples"].get<std::size_t>() == 20000);
+    // The same band within the model's error: the expected area within 0.5 % (docs/math.md#merging).
+    INFO("mass merged " << a["band"]["mass"] << ", every point " << b["band"]["mass"]);
+    CHECK(a["band"]["mass"].get<double>() == Approx(b["band"]["mass"].get<double>()).epsilon(0.005));
+    r = run("info " + cloud + " --max-voxels 30000");
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("the samples merged into " + std::to_string(a["input"]["model_samples"].get<std::size_t>())));
+    // A soup at the default s = 0.4 ℓ is never merged.
+    r = run("band " + gpisvdb::test::dataPath("bunny.obj") + " -o " + vdb + " --report " + merged + " --quiet");
+    REQUIRE(r.code == 0);
+    const nlohmann::json c = nlohmann::json::parse(std::ifstream(merged));
+    CHECK(c["input"]["model_samples"] == c["input"]["samples"]);
+    r = run("band " + cloud + " -o " + vdb + " --merge -1");
+    CHECK(r.code == 1);
+    CHECK_THAT(r.err, Catch::Contains("--merge") && Catch::Contains(">= 0"));
+}
+
 TEST_CASE("cli: the band-voxel budget sets the default voxel size and says so, and --voxel-size still refuses what does not fit", "[cli]") {
     // A dense cloud (4000 points, σ = 0.02 in world units): its accuracy-driven band holds millions of voxels; a
     // budget of 20 000 coarsens h to fit it, and says so.

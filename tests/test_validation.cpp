@@ -215,10 +215,11 @@ TEST_CASE("validation: a sphere scanned at 1e3, 1e4 and 1e5 points gives the sam
     // in world units (σ = 0.05 per point), 10× and 100× denser, at the same voxel size, with a band wide enough
     // (η = 1e-6) that u = 0 beyond it costs nothing (docs/operators.md). The kernel's s follows the noise (1.2 σ), so
     // the expected surface is the same; what changes is how well the samples average the noise: μ's width falls from
-    // 0.020 to 0.013. Measured (area, energy of x, l = 1 gap, path): 12.570, 8.403, 1.980, 3.316 at 1e3 points;
-    // 12.483, 8.335, 1.973, 3.417 at 1e4; 12.476, 8.328, 1.971, 3.385 at 1e5 (4π, 8π/3, 2/r², π). The path runs
-    // through voxel centres, 8 % longer than π at h = 0.04; at 1e3 points, whose band is 27 % thicker, it is 3 %
-    // shorter than at 1e4 (3.2 % at h = 0.03, where 1e4 and 1e5 agree to 0.05 %), so the path is compared from 1e4 on.
+    // 0.020 to 0.013. At 1e4 and 1e5 points s > ℓ, and the model sums the points merged into dipoles at cells of s
+    // (docs/math.md#merging). Measured (area, energy of x, l = 1 gap, path): 12.570, 8.403, 1.980, 3.316 at 1e3 points;
+    // 12.474, 8.330, 1.974, 3.333 at 1e4; 12.462, 8.318, 1.972, 3.371 at 1e5 (4π, 8π/3, 2/r², π). The path runs
+    // through voxel centres, 6–7 % longer than π at h = 0.04, and feels the band's thickness (27 % more at 1e3 points;
+    // unmerged, the 1e3-point path was 3 % shorter than at 1e4), so it is compared from 1e4 on.
     struct Figures {
         double area, energy, gap, path;
     };

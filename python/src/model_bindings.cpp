@@ -26,12 +26,14 @@ namespace gpisvdb::python {
 
 namespace {
 
-ModelOptions modelOptions(double sigma, double smoothing, double noiseSmoothing, double beta, bool exact, const std::string& model,
-                          py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise) {
+ModelOptions modelOptions(double sigma, double smoothing, double noiseSmoothing, double merge, double beta, bool exact,
+                          const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset,
+                          double labelNoise) {
     ModelOptions o;
     o.sigmaRel = sigma;
     o.smoothingRel = smoothing;
     o.noiseSmoothing = noiseSmoothing;
+    o.mergeRel = merge;
     o.barnesHut.beta = beta;
     o.exact = exact;
     if (model == "winding") {
@@ -217,7 +219,7 @@ py::dict collisionTask(const Model& m, py::handle V, py::handle F, int draws, st
 void bindModel(py::module_& m) {
     py::class_<Model>(m, "Model", R"doc(A Gaussian process implicit surface: at every point x, (phi(x), grad phi(x)) is Gaussian.
 
-Model(V, F, sigma=0.5, smoothing=0.4, noise_smoothing=1.2, beta=6.0, exact=False, model='winding', labels=None,
+Model(V, F, sigma=0.5, smoothing=0.4, noise_smoothing=1.2, merge=1.0, beta=6.0, exact=False, model='winding', labels=None,
       training_points=300, training_offset=0.5, label_noise=0.05, threads=0)
 
 A triangle soup with Gaussian vertex noise (paper App. B). V: n x 3 vertex positions (world units, any real
@@ -227,6 +229,7 @@ Parameters (as the command line's flags; docs/python.md):
   sigma            vertex noise std, relative to the length scale l (mean edge length) (> 0)
   smoothing        kernel smoothing s, relative to l (regression: to the training spacing) (> 0)
   noise_smoothing  winding: s is at least this x the samples' median position std (>= 0; 0: smoothing x l alone)
+  merge            winding: where samples are denser than s (s > l), one Gaussian dipole per cell of this x s (>= 0; 0: never)
   beta             Barnes-Hut accuracy: a node stands in for its samples beyond beta x its radius (> 1)
   exact            direct O(n) sums instead of Barnes-Hut
   model            'winding' (linearised winding number, surface phi = 0.5) or 'regression' (App. F, phi = 0)
@@ -243,32 +246,32 @@ Example:
   >>> model = gpisvdb.Model(V, F, sigma=0.25)
   >>> model.evaluate(np.zeros((1, 3)))['mu']
 )doc")
-        .def(py::init([](py::handle V, py::handle F, double sigma, double smoothing, double noiseSmoothing, double beta, bool exact,
-                         const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise,
-                         int threads) {
-                 const ModelOptions o =
-                     modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+        .def(py::init([](py::handle V, py::handle F, double sigma, double smoothing, double noiseSmoothing, double merge, double beta,
+                         bool exact, const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset,
+                         double labelNoise, int threads) {
+                 const ModelOptions o = modelOptions(sigma, smoothing, noiseSmoothing, merge, beta, exact, model, labels, trainingPoints,
+                                                     trainingOffset, labelNoise);
                  return makeModel(soupInput(V, F), o, threads);
              }),
              "V"_a, "F"_a, py::kw_only(), "sigma"_a = kDefaultSigmaRel, "smoothing"_a = kDefaultSmoothingRel,
-             "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding",
-             "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
+             "noise_smoothing"_a = kNoiseSmoothing, "merge"_a = kDefaultMergeRel, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+             "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
              "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0)
         .def_static(
             "from_cloud",
-            [](py::handle P, py::handle N, py::object sigma, py::object area, double smoothing, double noiseSmoothing, double beta,
-               bool exact, const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset,
+            [](py::handle P, py::handle N, py::object sigma, py::object area, double smoothing, double noiseSmoothing, double merge,
+               double beta, bool exact, const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset,
                double labelNoise, int threads) {
                 double rel;
                 py::object perPoint;
                 splitCloudSigma(sigma, rel, perPoint);
-                const ModelOptions o =
-                    modelOptions(rel, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                const ModelOptions o = modelOptions(rel, smoothing, noiseSmoothing, merge, beta, exact, model, labels, trainingPoints,
+                                                    trainingOffset, labelNoise);
                 return makeModel(cloudInput(P, N, perPoint, area), o, threads);
             },
             "P"_a, "N"_a, py::kw_only(), "sigma"_a = py::none(), "area"_a = py::none(), "smoothing"_a = kDefaultSmoothingRel,
-            "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding",
-            "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
+            "noise_smoothing"_a = kNoiseSmoothing, "merge"_a = kDefaultMergeRel, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+            "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
             "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0,
             R"doc(A model of an oriented point cloud with per-point uncertainty (docs/model.md).
 
@@ -279,11 +282,11 @@ area:  None (estimated from the spacing) or n areas per point (world units^2).
 The other keywords as for Model(V, F, ...).)doc")
         .def_static(
             "from_file",
-            [](const std::string& path, double sigma, double smoothing, double noiseSmoothing, double beta, bool exact,
+            [](const std::string& path, double sigma, double smoothing, double noiseSmoothing, double merge, double beta, bool exact,
                const std::string& model, py::object labels, std::size_t trainingPoints, double trainingOffset, double labelNoise,
                int threads) {
-                const ModelOptions o =
-                    modelOptions(sigma, smoothing, noiseSmoothing, beta, exact, model, labels, trainingPoints, trainingOffset, labelNoise);
+                const ModelOptions o = modelOptions(sigma, smoothing, noiseSmoothing, merge, beta, exact, model, labels, trainingPoints,
+                                                    trainingOffset, labelNoise);
                 InputData data;
                 {
                     py::gil_scoped_release release;
@@ -292,8 +295,8 @@ The other keywords as for Model(V, F, ...).)doc")
                 return makeModel(std::move(data), o, threads);
             },
             "path"_a, py::kw_only(), "sigma"_a = kDefaultSigmaRel, "smoothing"_a = kDefaultSmoothingRel,
-            "noise_smoothing"_a = kNoiseSmoothing, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false, "model"_a = "winding",
-            "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
+            "noise_smoothing"_a = kNoiseSmoothing, "merge"_a = kDefaultMergeRel, "beta"_a = BarnesHutOptions{}.beta, "exact"_a = false,
+            "model"_a = "winding", "labels"_a = py::none(), "training_points"_a = TrainingOptions{}.surfacePoints,
             "training_offset"_a = TrainingOptions{}.offsetRelative, "label_noise"_a = RegressionGpisOptions{}.labelNoise, "threads"_a = 0,
             R"doc(A model of a file: a triangle soup (.obj .off .ply .stl .vtp), an oriented cloud (.xyz .ply .vtp) or Gaussian dipoles (.gdp), as the
 command line reads it. Keywords as for Model(V, F, ...); a cloud's per-point sigma column is used where present.)doc")
@@ -320,6 +323,9 @@ The same numbers as `gpisvdb evaluate`'s CSV.)doc")
             "smoothing", [](const Model& m) { return m.loaded->smoothing; }, "absolute kernel smoothing s, world units")
         .def_property_readonly(
             "samples", [](const Model& m) { return m.loaded->input.samples.size(); }, "samples: triangles (soup) or points (cloud) used")
+        .def_property_readonly(
+            "model_samples", [](const Model& m) { return m.loaded->modelSamples; },
+            "the samples, or the Gaussian dipoles they were merged into (merge; docs/math.md#merging), that the model sums")
         .def_property_readonly(
             "skipped", [](const Model& m) { return m.loaded->input.degenerateSkipped; }, "zero-area triangles left out")
         .def_property_readonly("is_soup", [](const Model& m) { return m.loaded->input.isSoup; })

@@ -114,6 +114,25 @@ def test_cloud_from_numpy_equals_cloud_from_file(tmp_path):
     assert gamma[0] > 0.75 and abs(gamma[2]) < 0.01 and abs(on.mean() / gamma[0] - 0.5) < 0.05
 
 
+def test_a_cloud_denser_than_the_kernel_is_merged_into_dipoles_within_the_model_error():
+    # 20 000 points with sigma 0.05: s = 1.2 sigma = 0.06 > l = 0.025, so cells of s hold several points each.
+    rng = np.random.default_rng(11)
+    P = rng.standard_normal((20000, 3))
+    P /= np.linalg.norm(P, axis=1)[:, None]
+    sig = np.full(len(P), 0.05)
+    merged = gpisvdb.Model.from_cloud(P, P, sigma=sig)
+    every = gpisvdb.Model.from_cloud(P, P, sigma=sig, merge=0)
+    assert merged.samples == every.samples == 20000
+    assert merged.model_samples < 20000 / 3 and every.model_samples == 20000
+    Q = rng.standard_normal((200, 3))
+    x = (1 + 0.1 * rng.uniform(-1, 1, (200, 1))) * Q / np.linalg.norm(Q, axis=1)[:, None]
+    a, b = merged.evaluate(x), every.evaluate(x)
+    assert np.max(np.abs(a["mean"] - b["mean"])) < 0.01
+    assert np.max(np.abs(a["gradient"] - b["gradient"])) < 0.01 * np.max(np.abs(b["gradient"]))
+    with pytest.raises(gpisvdb.ParameterError, match="merge"):
+        gpisvdb.Model.from_cloud(P, P, sigma=sig, merge=-1)
+
+
 @pytest.mark.parametrize(
     "V_F, error, words",
     [

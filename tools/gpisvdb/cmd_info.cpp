@@ -56,6 +56,7 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
                 {"smoothing", model->smoothing},
                 {"normals_flipped", model->input.normalsFlipped},
                 {"smoothing_set_by", smoothingSourceName(model->smoothingSource)},
+                {"model_samples", model->modelSamples},
                 {"voxels", f.voxels},
                 {"evaluated_voxels", f.evaluated},
                 {"peak_bytes", peak},
@@ -76,8 +77,11 @@ nlohmann::json forecastDefaultBand(const InputData& data, double readSeconds, co
                   << ") set the voxel size; accuracy alone asks " << numberText(plan.accuracyVoxelSize) << " for about "
                   << millions(plan.accuracyVoxels) << " voxels\n";
     std::cout << "  smoothing:   " << numberText(model->smoothing) << " (set by the " << smoothingSourceName(model->smoothingSource)
-              << ")\n"
-              << "  voxels:      about " << millions(f.voxels) << " (" << millions(f.evaluated) << " evaluated)\n"
+              << ")\n";
+    if (model->modelSamples && model->modelSamples < model->input.samples.size())
+        std::cout << "  model:       the samples merged into " << model->modelSamples << " Gaussian dipoles (cells of "
+                  << numberText(mo.mergeRel) << " x s; docs/math.md#merging)\n";
+    std::cout << "  voxels:      about " << millions(f.voxels) << " (" << millions(f.evaluated) << " evaluated)\n"
               << "  memory:      about " << numberText(peak / 1e9) << " GB at its peak (the model's " << numberText(modelPeak / 1e9)
               << " GB as measured now, the band's " << numberText(f.peakBytes / 1e9) << " GB)\n"
               << "  time:        about " << numberText(total) << " s on " << out["threads"].get<int>() << " threads: reading "

@@ -188,6 +188,10 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
                        "winding model: s is at least this × the samples' median position std, so that it follows the noise "
                        "where samples are denser than it (>= 0; 0: --smoothing × ℓ alone)")
             ->capture_default_str();
+        app.add_option("--merge", f.mergeRel,
+                       "winding model: the samples merged into one Gaussian dipole per cell of this × s, where they are denser "
+                       "(>= 0; 0: never)")
+            ->capture_default_str();
         app.add_option("--beta", f.beta,
                        "Barnes-Hut accuracy: a node stands in for its samples beyond beta × its radius (2 × beta for the covariance near "
                        "the query) (> 1)")
@@ -239,6 +243,7 @@ ModelOptions modelOptions(const ModelFlags& flags) {
     o.sigmaRel = flags.sigmaRel;
     o.smoothingRel = flags.smoothingRel;
     o.noiseSmoothing = flags.noiseSmoothing;
+    o.mergeRel = flags.mergeRel;
     o.kind = flags.model == "regression" ? ModelKind::Regression : ModelKind::Winding;
     o.exact = flags.exact;
     o.barnesHut.beta = flags.beta;

@@ -20,6 +20,7 @@ struct ModelFlags {
     double sigmaRel = kDefaultSigmaRel;          ///< --sigma: vertex/point noise std relative to ℓ
     double smoothingRel = kDefaultSmoothingRel;  ///< --smoothing: kernel smoothing s relative to ℓ
     double noiseSmoothing = kNoiseSmoothing;     ///< --noise-smoothing: s at least this × the median position std
+    double mergeRel = ModelOptions{}.mergeRel;   ///< --merge: samples merged per cell of this × s
     double beta = BarnesHutOptions{}.beta;       ///< --beta: Barnes–Hut opening criterion
     bool exact = false;                          ///< --exact: direct O(n) sums instead of Barnes–Hut
     std::string model = "winding";               ///< --model: winding (paper Eq. 5) or regression (App. F)

@@ -86,6 +86,7 @@ nlohmann::json bandReport(const BandJob& job) {
     // === What was read
     nlohmann::json input = {{"path", job.source},
                             {"samples", in.samples.size()},
+                            {"model_samples", job.model->modelSamples},
                             {"length_scale", in.samples.lengthScale},
                             {"kind", in.isSoup ? "triangle soup" : "oriented point cloud"},
                             {"skipped_zero_area", in.degenerateSkipped},
@@ -96,6 +97,7 @@ nlohmann::json bandReport(const BandJob& job) {
                                  {"smoothing_rel", mo.smoothingRel},
                                  {"smoothing", job.model->smoothing},
                                  {"noise_smoothing", mo.noiseSmoothing},
+                                 {"merge_rel", mo.mergeRel},
                                  {"smoothing_set_by", smoothingSourceName(job.model->smoothingSource)},
                                  {"model", mo.kind == ModelKind::Regression ? "regression" : "winding"},
                                  {"training_labels", job.model->trainingSize},

@@ -19,6 +19,8 @@ openvdb::MetaMap bandMetadata(const BandProvenance& provenance, const ModelOptio
     meta.insertMeta("smoothing_rel", openvdb::DoubleMetadata(modelOptions.smoothingRel));
     meta.insertMeta("smoothing", openvdb::DoubleMetadata(model.smoothing));
     meta.insertMeta("smoothing_set_by", openvdb::StringMetadata(smoothingSourceName(model.smoothingSource)));
+    meta.insertMeta("merge_rel", openvdb::DoubleMetadata(modelOptions.mergeRel));
+    meta.insertMeta("model_samples", openvdb::Int64Metadata(openvdb::Int64(model.modelSamples)));
     meta.insertMeta("model", openvdb::StringMetadata(modelOptions.kind == ModelKind::Regression ? "regression" : "winding"));
     if (model.trainingSize) {
         meta.insertMeta("training_labels", openvdb::Int64Metadata(openvdb::Int64(model.trainingSize)));

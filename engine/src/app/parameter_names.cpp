@@ -30,6 +30,7 @@ const std::vector<ParameterName>& parameterNames() {
         {"CloudNoiseOptions::areaIsotropy", "", ""},
         {"ModelOptions::smoothingRel", "--smoothing", "smoothing"},
         {"ModelOptions::noiseSmoothing", "--noise-smoothing", "noise_smoothing"},
+        {"ModelOptions::mergeRel", "--merge", "merge"},
         {"BarnesHutOptions::beta", "--beta", "beta"},
         {"BarnesHutOptions::covarianceRatio", "", ""},
         {"BarnesHutOptions::cellWidth", "", ""},

@@ -8,6 +8,7 @@
 
 #include "gpisvdb/core/errors.h"
 #include "gpisvdb/model/direct_gpis.h"
+#include "gpisvdb/model/merge_samples.h"
 
 namespace gpisvdb {
 
@@ -32,9 +33,16 @@ double medianGammaAtSamples(const GpisModel& winding, const Samples& samples) {
 
 namespace {
 
-std::unique_ptr<GpisModel> windingModel(const Samples& samples, double s, const ModelOptions& options) {
-    if (options.exact) return std::make_unique<DirectGpis>(samples, s);
-    return std::make_unique<BarnesHutGpis>(samples, s, options.barnesHut);
+/// The winding model of the samples, or of their merged dipoles where they are denser than s (docs/math.md#merging);
+/// `dipoles` receives the count the model holds.
+std::unique_ptr<GpisModel> windingModel(const Samples& samples, double s, const ModelOptions& options, std::size_t* dipoles = nullptr) {
+    const auto build = [&](const Samples& modelSamples) -> std::unique_ptr<GpisModel> {
+        if (dipoles) *dipoles = modelSamples.size();
+        if (options.exact) return std::make_unique<DirectGpis>(modelSamples, s);
+        return std::make_unique<BarnesHutGpis>(modelSamples, s, options.barnesHut);
+    };
+    if (mergesSamples(samples, s, options)) return build(mergeSamples(samples, options.mergeRel * s));
+    return build(samples);
 }
 
 /// Flips the normals of inward samples (medianGammaAtSamples < 0), given a winding model of them; true if it did.
@@ -47,6 +55,13 @@ bool orientOutward(InputSamples& input, const GpisModel& winding) {
 }
 
 }  // namespace
+
+bool mergesSamples(const Samples& samples, double s, const ModelOptions& options) {
+    if (!(options.mergeRel >= 0) || !std::isfinite(options.mergeRel))
+        throw ParameterError("the merging cell (ModelOptions::mergeRel) must be finite and >= 0 (got " + numberText(options.mergeRel) + ")",
+                             {"ModelOptions::mergeRel"});
+    return options.mergeRel > 0 && s > samples.lengthScale;
+}
 
 std::pair<double, SmoothingSource> windingSmoothing(const InputSamples& input, const ModelOptions& options) {
     const double fromLength = options.smoothingRel * input.samples.lengthScale;
@@ -84,12 +99,12 @@ LoadedModel loadModel(const InputData& data, const ModelOptions& options) {
         m.trainingSize = training.size();
         m.model = std::make_unique<RegressionGpis>(std::move(training), ro);
     } else {
-        m.model = windingModel(m.input.samples, m.smoothing, options);
+        m.model = windingModel(m.input.samples, m.smoothing, options, &m.modelSamples);
         // === Orientation: inward normals flipped, the model built again on them (docs/math.md#orientation); the
         //     first tree is freed before the second is built, so the peak is one tree's
         if (options.orientOutward && orientOutward(m.input, *m.model)) {
             m.model.reset();
-            m.model = windingModel(m.input.samples, m.smoothing, options);
+            m.model = windingModel(m.input.samples, m.smoothing, options, &m.modelSamples);
         }
     }
     return m;
@@ -109,7 +124,7 @@ LoadedModel withSmoothing(const LoadedModel& model, const ModelOptions& options,
     m.input = model.input;
     m.smoothing = s;
     m.smoothingSource = source;
-    m.model = windingModel(m.input.samples, s, options);
+    m.model = windingModel(m.input.samples, s, options, &m.modelSamples);
     return m;
 }
 

@@ -26,6 +26,9 @@ constexpr double kNoiseSmoothing = 1.2;
 /// The default ModelOptions::smoothingRel: s = 0.4 ℓ (docs/math.md#smoothing).
 constexpr double kDefaultSmoothingRel = 0.4;
 
+/// The default ModelOptions::mergeRel: cells of width s (docs/math.md#merging).
+constexpr double kDefaultMergeRel = 1.0;
+
 struct ModelOptions {
     double sigmaRel = kDefaultSigmaRel;          ///< vertex/point noise std σ relative to ℓ (> 0)
     double smoothingRel = kDefaultSmoothingRel;  ///< kernel smoothing s relative to ℓ (regression: to the training spacing) (> 0)
@@ -33,6 +36,10 @@ struct ModelOptions {
     /// samples' median position std (world units), so that s follows the noise where the points are denser than it
     /// (≥ 0; 0: s = smoothingRel·ℓ alone). Where σ = sigmaRel·ℓ, s/σ is fixed by the two. docs/math.md#smoothing.
     double noiseSmoothing = kNoiseSmoothing;
+    /// Winding model: where the samples are denser than the kernel (s > ℓ), they are merged into one Gaussian dipole per
+    /// cubic cell of width mergeRel·s (world lattice) before the model is built (mergeSamples; ≥ 0; 0: never).
+    /// docs/math.md#merging.
+    double mergeRel = kDefaultMergeRel;
     ModelKind kind = ModelKind::Winding;
     bool exact = false;                                      ///< winding: direct O(n) sums instead of Barnes–Hut
     BarnesHutOptions barnesHut;                              ///< winding, not exact: the tree's accuracy
@@ -57,8 +64,13 @@ struct LoadedModel {
     double smoothing = 0;  ///< absolute s, world units
     SmoothingSource smoothingSource = SmoothingSource::LengthScale;
     std::size_t trainingSize = 0;  ///< labelled points of the regression model (0: winding model)
+    std::size_t modelSamples = 0;  ///< winding model: the samples or merged dipoles it sums (ModelOptions::mergeRel)
     std::unique_ptr<GpisModel> model;
 };
+
+/// Whether the winding model of smoothing s (world units) merges the samples (ModelOptions::mergeRel > 0 and s > ℓ).
+/// Throws ParameterError when mergeRel is negative or not finite.
+bool mergesSamples(const Samples& samples, double s, const ModelOptions& options);
 
 /// σ_p: the median over the samples of their position std √v_i, world units.
 double medianPositionStd(const Samples& samples);
