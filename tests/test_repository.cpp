@@ -267,9 +267,10 @@ TEST_CASE("repository: the entry points of band/, solve/, tasks/ and app/ docume
     // The public headers' doc template (docs/README.md#the-c-library): a function that returns a stage's result
     // documents each parameter (\param, by its name: Doxygen's test checks the names), what it returns, what it
     // throws, its complexity and its thread safety. The stages listed here follow it.
-    const std::regex entryPoint(R"(^(\w+Result|BandJob|DefaultBand|std::vector<RayHit>) (\w+)\()");
+    const std::regex entryPoint(
+        R"(^(\w+Result|BandJob|DefaultBand|std::vector<RayHit>|InputData|InputSamples|LoadedModel|Samples) (\w+)\()");
     std::size_t checked = 0;
-    for (const char* stage : {"band", "solve", "tasks", "app"}) {
+    for (const char* stage : {"input", "model", "band", "solve", "tasks", "app"}) {
         for (const auto& entry : fs::directory_iterator(kSource / "engine/include/gpisvdb" / stage)) {
             std::vector<std::string> lines;
             std::istringstream in(readAll(entry.path()));
@@ -295,5 +296,5 @@ TEST_CASE("repository: the entry points of band/, solve/, tasks/ and app/ docume
             }
         }
     }
-    CHECK(checked >= 20);  // 20 when written: band 5, solve 5, the eight tasks, the band job's two
+    CHECK(checked >= 25);  // 25 when written: input 2, model 3, band 5, solve 5, the eight tasks, the band job's two
 }

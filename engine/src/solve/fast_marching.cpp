@@ -154,7 +154,7 @@ void forEachChunkOfNeighbours(const Band& band, F&& f) {
 /// stencil (+∞ if none), λ_k (copied from the band's stencil when the voxel is first touched, so an update reads
 /// this record only), its tentative U and its place in the front. Only touched, unaccepted voxels hold one, in a
 /// pool whose slots are reused once a voxel is accepted: the pool follows the front (a surface of the accepted
-/// region), not the band, which is what brings a march under 100 B per voxel (issue 18 item 6).
+/// region), not the band, which is what brings a march under 100 B per voxel (docs/memory.md).
 struct Touched {
     double m[6];
     float lambda[6];
@@ -225,7 +225,7 @@ FastMarching::FastMarching(const Band& band) : band_(band) {
     // === Reverse table by counting sort (deterministic: sources in index order), each entry with the term of
     // the source's stencil that reaches y. The forward neighbours are resolved by chunks of voxels, twice (once to
     // count, once to fill), rather than held for the whole band: the whole forward table is 48 B per voxel, which
-    // beside the reverse table would make the build, not the march, the peak (≈ 100 B per voxel; issue 18 item 6).
+    // beside the reverse table would make the build, not the march, the peak (≈ 100 B per voxel).
     reserveHuge(reverseStart_, n + 1);
     reverseStart_.assign(n + 1, 0);
     forEachChunkOfNeighbours(band, [&](std::size_t, const std::vector<std::int32_t>& forward) {

@@ -23,9 +23,17 @@ struct InputData {
     std::size_t polygonsTriangulated = 0;  ///< polygons with > 3 corners fan-triangulated
 };
 
-/// Reads a file by its extension (case-insensitive). Throws InputError with the file name and, where it
-/// applies, the line, on a missing file, unknown extension, empty content, malformed content, non-finite
-/// numbers, out-of-range face indices, or a cloud without normals.
+/// Reads a file by its extension (case-insensitive): a soup or a cloud, as the file holds.
+/// \param path  the file: .obj .off .ply .stl .vtp (soups; .ply and .vtp without faces are clouds), .xyz, .gdp
+/// \return the soup or the cloud, positions in the file's (world) units
+/// \throws InputError with the file name and, where it applies, the line, on a missing file, unknown extension, empty
+///         content, malformed content, non-finite numbers, out-of-range face indices, a cloud without normals, or more
+///         than kMaxInputSamples samples
+/// \par Complexity
+///   O(size of the file) time and the input's own memory (a header that declares more than kMaxInputSamples is
+///   refused before the body is read).
+/// \par Thread safety
+///   Reads only the file: concurrent calls are safe. One thread.
 InputData readInput(const std::string& path);
 
 struct NoiseOptions {
@@ -43,7 +51,20 @@ struct InputSamples {
                                     ///< ModelOptions::orientOutward; docs/math.md#orientation)
 };
 
-/// Samples of either kind of input with its noise model.
+/// Samples of either kind of input with its noise model (docs/math.md#samples): a soup's triangles (App. B's noise
+/// from the vertices' σ), or a cloud's points with their areas (given, or estimated from the spacing) and their own σ
+/// or σ = sigmaRel·ℓ.
+/// \param input    a soup or a cloud (readInput), world units
+/// \param options  σ relative to ℓ, where the input gives none of its own
+/// \return the samples, ℓ (world units), the absolute σ and what was skipped
+/// \throws ParameterError for sigmaRel ≤ 0 or not finite; InputError for an empty input, only zero-area triangles,
+///         or more than kMaxInputSamples samples
+/// \par Complexity
+///   O(n log n) for n samples (a cloud's areas: a k-d tree and a k-nearest search per point); 104 B per sample
+///   (samplesBytes) and, for a cloud, cloudSamplingBytes while the areas are estimated.
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel inside (TBB); the samples are the same for any
+///   thread count.
 InputSamples makeSamples(const InputData& input, const NoiseOptions& options = {});
 
 /// What makeSamples(input) allocates at its peak, bytes by part, counted from the input's size before it allocates

@@ -89,11 +89,33 @@ constexpr const char* kNormalsFlippedNote =
     "is gamma = 1/2 and the inside is the side they enclose (docs/math.md#orientation)";
 
 /// The input's samples with σ = sigmaRel·ℓ, their normals flipped if they point inward (orientOutward), then the model
-/// (winding: s = smoothingRel·ℓ, or noiseSmoothing·σ_p where that is larger and the cloud gives its own σ). Throws ParameterError naming
-/// the ModelOptions (or the noise options') field on a bad parameter, InputError on unusable input.
+/// (winding: s = smoothingRel·ℓ, or noiseSmoothing·σ_p where that is larger and the cloud gives its own σ; the samples
+/// merged into dipoles where s > ℓ, mergeRel).
+/// \param data     a soup or a cloud (readInput), world units
+/// \param options  σ, s, merging, the kind of model and its accuracy (relative values as ModelOptions says)
+/// \return the samples as read (normals flipped if they were), s (world units) and what set it, and the model
+/// \throws ParameterError naming the ModelOptions (or the noise options') field on a bad parameter; InputError on
+///         unusable input (makeSamples)
+/// \par Complexity
+///   makeSamples' O(n log n), then the Barnes–Hut tree's O(m log m) over the m ≤ n samples or dipoles it sums (twice
+///   where the normals are flipped); the regression model: its training's O(t³) for t labels. Memory: the samples
+///   and one tree (barnes_hut_gpis.h's memoryBytes).
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel inside (TBB); the model is the same for any thread
+///   count.
 LoadedModel loadModel(const InputData& data, const ModelOptions& options = {});
 
-/// The same samples in a winding model (as options.exact asks) of smoothing s (world units, > 0), set by `source`.
+/// The same samples in a winding model (as options.exact asks) of another smoothing, for a band of voxel values.
+/// \param model    a loaded model: its samples are reused (copied), its own model is not
+/// \param options  the model's options (exact, accuracy, merging)
+/// \param s        the new smoothing, world units (> 0)
+/// \param source   what set s, for the report
+/// \return the samples with a new winding model of smoothing s (merged where s > ℓ)
+/// \throws ParameterError for s ≤ 0 or not finite, or a bad mergeRel
+/// \par Complexity
+///   The tree's O(m log m) over the m samples or dipoles, and a copy of the samples.
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. Parallel inside (TBB).
 LoadedModel withSmoothing(const LoadedModel& model, const ModelOptions& options, double s, SmoothingSource source);
 
 }  // namespace gpisvdb

@@ -17,8 +17,14 @@ namespace gpisvdb {
 /// (|W| < 1e-6 Σ|w_i|, two sheets closer than `cell`) takes v = Σ |w_i|² v_i / (Σ|w_i|)². A cell of one sample keeps
 /// it unchanged. The dipoles come in the order of their cells' first samples, so the result does not depend on the
 /// thread count. ℓ is kept (it describes the input's spacing, which the defaults follow).
-/// Inputs: samples with equal-length arrays. Output: at most samples.size() dipoles. Throws ParameterError when
-/// `cell` is not finite and > 0. O(n) time (one hash-map pass), O(n) extra memory.
+/// \param samples  the samples, world units, their arrays of equal length
+/// \param cell     the cells' width c, world units (> 0)
+/// \return at most samples.size() dipoles, with the samples' ℓ
+/// \throws ParameterError when `cell` is not finite and > 0
+/// \par Complexity
+///   O(n) for n samples: one pass through a hash map of the cells; O(n) extra memory at most (one entry per cell).
+/// \par Thread safety
+///   Reads its inputs only: concurrent calls are safe. One thread.
 Samples mergeSamples(const Samples& samples, double cell);
 
 }  // namespace gpisvdb

@@ -33,7 +33,8 @@ struct FastMarchingResult {
 /// ≤ 12 entries, plus a 4 B start: measured 47–52 B per voxel), built once for several marches on one band. The
 /// band must outlive it. A march holds kMarchBytesPerVoxel = 13 B per voxel more while it runs (U 8, a slot or
 /// "accepted" mark 4, the target flag 1), plus kTouchedBytes per voxel touched but not yet accepted (the front;
-/// FastMarchingResult::peakTouched): about 65 B per voxel in all where the pre-issue-18 march held 136.
+/// FastMarchingResult::peakTouched): about 65 B per voxel in all, where runReference holds 136
+/// (docs/memory.md).
 class FastMarching {
 public:
     explicit FastMarching(const Band& band);
@@ -43,8 +44,8 @@ public:
     FastMarchingResult run(const std::vector<std::size_t>& sources, const std::vector<std::size_t>& targets = {},
                            const FastMarchingOptions& options = {}, const Progress& progress = {}) const;
 
-    /// The same march as run(), by the pre-issue-18 algorithm (a 72 B record for every band voxel, 85 B per voxel
-    /// beside the tables): kept as the reference the tests and bench_geodesic compare run() with, bit for bit.
+    /// The same march as run(), by the plain algorithm (a 72 B record for every band voxel, 85 B per voxel beside
+    /// the tables, no pool): kept as the reference the tests and bench_geodesic compare run() with, bit for bit.
     FastMarchingResult runReference(const std::vector<std::size_t>& sources, const std::vector<std::size_t>& targets = {},
                                     const FastMarchingOptions& options = {}, const Progress& progress = {}) const;
 
