@@ -102,7 +102,7 @@ TEST_CASE("merge samples: a cell whose vector areas cancel keeps a finite positi
     CHECK_THAT(m.position[0].z(), Catch::Matchers::WithinAbs(0.1, 1e-15));
 }
 
-TEST_CASE("merge samples: a cell that is not finite and positive is refused", "[merge]") {
+TEST_CASE("merge samples: a cell that is not finite and positive, or too small for the coordinates, is refused", "[merge]") {
     const Samples s = makeSamples(test::sphereCloudWithSigma(100, 0.01, 1)).samples;
-    for (double cell : {0.0, -1.0, double(NAN), double(INFINITY)}) CHECK_THROWS_AS(mergeSamples(s, cell), ParameterError);
+    for (double cell : {0.0, -1.0, double(NAN), double(INFINITY), 1e-300}) CHECK_THROWS_AS(mergeSamples(s, cell), ParameterError);
 }

@@ -1,5 +1,6 @@
 #include "gpisvdb/model/merge_samples.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -44,6 +45,13 @@ Samples mergeSamples(const Samples& samples, double cell) {
         throw ParameterError("the merging cell (ModelOptions::mergeRel × s) must be finite and > 0 (got " + numberText(cell) + ")",
                              {"ModelOptions::mergeRel"});
     const std::size_t n = samples.size();
+    // Cell indices as 64-bit integers, exact in double: |p| / cell below 2^52.
+    double reach = 0;
+    for (const Vec3d& p : samples.position) reach = std::max(reach, p.cwiseAbs().maxCoeff());
+    if (!(reach / cell < 4.5e15))
+        throw ParameterError("the merging cell " + numberText(cell) + " is too small for coordinates as large as " + numberText(reach) +
+                                 " (ModelOptions::mergeRel × s must exceed their largest absolute value / 4.5e15)",
+                             {"ModelOptions::mergeRel"});
     // === Sum each cell's samples, the cells numbered in the order of their first sample
     std::unordered_map<CellKey, std::size_t, CellKeyHash> index;
     index.reserve(n);

@@ -20,7 +20,8 @@ namespace gpisvdb {
 /// \param samples  the samples, world units, their arrays of equal length
 /// \param cell     the cells' width c, world units (> 0)
 /// \return at most samples.size() dipoles, with the samples' ℓ
-/// \throws ParameterError when `cell` is not finite and > 0
+/// \throws ParameterError when `cell` is not finite and > 0, or so small that a coordinate over it passes 4.5e15 (the
+///         cells' integer indices)
 /// \par Complexity
 ///   O(n) for n samples: one pass through a hash map of the cells; O(n) extra memory at most (one entry per cell).
 /// \par Thread safety
