@@ -189,8 +189,8 @@ void addModelFlags(CLI::App& app, ModelFlags& f, bool withModel) {
                        "where samples are denser than it (>= 0; 0: --smoothing × ℓ alone)")
             ->capture_default_str();
         app.add_option("--merge", f.mergeRel,
-                       "winding model: the samples merged into one Gaussian dipole per cell of this × s, where they are denser "
-                       "(>= 0; 0: never)")
+                       "winding model: where the samples are denser than the kernel (s > l), one Gaussian dipole per cell of this "
+                       "× s (>= 0; 0: never)")
             ->capture_default_str();
         app.add_option("--beta", f.beta,
                        "Barnes-Hut accuracy: a node stands in for its samples beyond beta × its radius (2 × beta for the covariance near "
