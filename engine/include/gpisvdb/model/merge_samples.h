@@ -23,7 +23,8 @@ namespace gpisvdb {
 /// \throws ParameterError when `cell` is not finite and > 0, or so small that a coordinate over it passes 4.5e15 (the
 ///         cells' integer indices)
 /// \par Complexity
-///   O(n) for n samples: one pass through a hash map of the cells; O(n) extra memory at most (one entry per cell).
+///   O(n) for n samples: one pass through a hash map of the cells; extra memory while it runs about 250 B per cell
+///   (the map's entry and the cell's sums) beside the dipoles it returns (104 B each).
 /// \par Thread safety
 ///   Reads its inputs only: concurrent calls are safe. One thread.
 Samples mergeSamples(const Samples& samples, double cell);
