@@ -15,8 +15,13 @@
 #include "contributions.h"
 #include "core/morton.h"
 #include "gpisvdb/model/barnes_hut_gpis.h"
+#include "lattice_cell.h"
 
 namespace gpisvdb {
+
+using detail::cellIndex;
+using detail::CellKey;
+using detail::CellKeyHash;
 
 namespace {
 
@@ -47,11 +52,6 @@ struct Chebyshev {
 };
 
 /// The lattice index of world coordinate `u` in cell widths (a NaN lands in cell 0; beyond ±9e15 widths, clamped).
-std::int64_t cellIndex(double u) {
-    const double f = std::floor(u);
-    return std::isfinite(f) ? std::int64_t(std::clamp(f, -9e15, 9e15)) : 0;
-}
-
 }  // namespace
 
 /// What a cell's points share: the far nodes' expansions summed at the Chebyshev nodes, and the roots left to each
@@ -136,20 +136,6 @@ struct CellPlanner {
     }
 };
 
-struct CellKey {
-    std::int64_t c[3];
-    bool operator==(const CellKey& o) const { return c[0] == o.c[0] && c[1] == o.c[1] && c[2] == o.c[2]; }
-};
-
-struct CellKeyHash {
-    static std::size_t hash(const CellKey& k) {
-        std::uint64_t h = 1469598103934665603ULL;
-        for (std::int64_t v : k.c) h = (h ^ std::uint64_t(v)) * 1099511628211ULL;
-        return std::size_t(h ^ (h >> 29));
-    }
-    static bool equal(const CellKey& a, const CellKey& b) { return a == b; }
-};
-
 /// Cells' tables kept across batches (the band's BFS hands a cell's points over in several batches), up to
 /// cellCacheBytes; a table depends on nothing but its cell, so whether it was kept never changes a result.
 struct BarnesHutGpis::CellCache {
@@ -179,14 +165,11 @@ std::size_t tableBytesEstimate(int nodes) {
 const BarnesHutGpis::CellCache& BarnesHutGpis::sizedCellCache() const {
     std::call_once(cells_->sized, [&] {
         const double width = options_.cellWidth * kernel_.smoothing();
-        const auto keyOf = [&](const Vec3d& p) {
-            return CellKey{{cellIndex(p[0] / width), cellIndex(p[1] / width), cellIndex(p[2] / width)}};
-        };
         const auto less = [](const CellKey& a, const CellKey& b) {
             return std::tie(a.c[0], a.c[1], a.c[2]) < std::tie(b.c[0], b.c[1], b.c[2]);
         };
         std::vector<CellKey> cells(samples_.size());
-        tbb::parallel_for(std::size_t(0), cells.size(), [&](std::size_t i) { cells[i] = keyOf(samples_.position[i]); });
+        tbb::parallel_for(std::size_t(0), cells.size(), [&](std::size_t i) { cells[i] = CellKey::of(samples_.position[i], width); });
         tbb::parallel_sort(cells.begin(), cells.end(), less);
         cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
         cells_->sampleCells = cells.size();

@@ -6,24 +6,11 @@
 #include <unordered_map>
 
 #include "gpisvdb/core/errors.h"
+#include "lattice_cell.h"
 
 namespace gpisvdb {
 
 namespace {
-
-struct CellKey {
-    std::int64_t i, j, k;
-    bool operator==(const CellKey& o) const { return i == o.i && j == o.j && k == o.k; }
-};
-
-struct CellKeyHash {
-    std::size_t operator()(const CellKey& c) const {
-        std::uint64_t h = std::uint64_t(c.i) * 0x9E3779B97F4A7C15ull;
-        h ^= std::uint64_t(c.j) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
-        h ^= std::uint64_t(c.k) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
-        return std::size_t(h);
-    }
-};
 
 /// A cell's running sums.
 struct Merged {
@@ -53,14 +40,12 @@ Samples mergeSamples(const Samples& samples, double cell) {
                                  " (ModelOptions::mergeRel × s must exceed their largest absolute value / 4.5e15)",
                              {"ModelOptions::mergeRel"});
     // === Sum each cell's samples, the cells numbered in the order of their first sample
-    std::unordered_map<CellKey, std::size_t, CellKeyHash> index;
+    std::unordered_map<detail::CellKey, std::size_t, detail::CellKeyHash> index;
     index.reserve(n);
     std::vector<Merged> cells;
     for (std::size_t i = 0; i < n; ++i) {
         const Vec3d& p = samples.position[i];
-        const CellKey key{std::int64_t(std::floor(p.x() / cell)), std::int64_t(std::floor(p.y() / cell)),
-                          std::int64_t(std::floor(p.z() / cell))};
-        const auto [it, added] = index.try_emplace(key, cells.size());
+        const auto [it, added] = index.try_emplace(detail::CellKey::of(p, cell), cells.size());
         if (added) cells.emplace_back().first = i;
         Merged& m = cells[it->second];
         const Vec3d& w = samples.normal[i];
